@@ -1,0 +1,118 @@
+//! Angle and direction conventions (normative text: `spec/EVALUATION.md`, section "Directions").
+//!
+//! The local shading frame has z along the surface normal. A direction (θ, φ) in degrees is the
+//! unit vector (sin θ cos φ, sin θ sin φ, cos θ): θ is measured from the normal, φ counter-clockwise
+//! from +x about z. The incident direction points from the surface toward the light; the outgoing
+//! direction points toward the viewer. The mirror direction of (θ, φ) is (θ, φ + 180°).
+
+/// Unit vector of a direction given in degrees.
+pub fn dir_from_deg(theta_deg: f64, phi_deg: f64) -> [f64; 3] {
+    let (st, ct) = theta_deg.to_radians().sin_cos();
+    let (sp, cp) = phi_deg.to_radians().sin_cos();
+    [st * cp, st * sp, ct]
+}
+
+/// (θ, φ) in degrees of a (not necessarily unit) vector; φ in [0, 360). At the poles φ = 0.
+pub fn deg_from_dir(d: [f64; 3]) -> (f64, f64) {
+    let r = (d[0] * d[0] + d[1] * d[1]).sqrt();
+    let theta = r.atan2(d[2]).to_degrees();
+    let phi = if r == 0.0 {
+        0.0
+    } else {
+        wrap_phi(d[1].atan2(d[0]).to_degrees())
+    };
+    (theta, phi)
+}
+
+/// φ taken modulo 360 into [0, 360).
+pub fn wrap_phi(phi_deg: f64) -> f64 {
+    let p = phi_deg.rem_euclid(360.0);
+    // rem_euclid can round up to exactly 360 for tiny negative inputs.
+    if p >= 360.0 {
+        0.0
+    } else {
+        p + 0.0 // turns -0.0 into +0.0
+    }
+}
+
+/// Signed azimuth difference a − b wrapped into (−180, 180].
+pub fn phi_delta(a_deg: f64, b_deg: f64) -> f64 {
+    let d = (a_deg - b_deg).rem_euclid(360.0);
+    if d > 180.0 {
+        d - 360.0
+    } else {
+        d
+    }
+}
+
+/// The mirror-reflection direction of an incident direction: (θ, φ + 180°).
+pub fn mirror_deg(theta_i: f64, phi_i: f64) -> (f64, f64) {
+    (theta_i, wrap_phi(phi_i + 180.0))
+}
+
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Angle in radians between two unit vectors, robust near 0 and π.
+pub fn angle_between(a: [f64; 3], b: [f64; 3]) -> f64 {
+    // atan2(|a×b|, a·b) keeps full precision for tiny angles, where acos(a·b) loses it.
+    let c = [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ];
+    let s = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+    s.atan2(dot(a, b))
+}
+
+pub fn normalize(v: [f64; 3]) -> Option<[f64; 3]> {
+    let n = dot(v, v).sqrt();
+    if n.is_finite() && n > 0.0 {
+        Some([v[0] / n, v[1] / n, v[2] / n])
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_and_poles() {
+        for &(t, p) in &[
+            (15.0, 0.0),
+            (89.0, 359.0),
+            (45.0, 180.0),
+            (0.0, 0.0),
+            (90.0, 90.0),
+        ] {
+            let (t2, p2) = deg_from_dir(dir_from_deg(t, p));
+            assert!((t - t2).abs() < 1e-9, "{t} {t2}");
+            if t > 0.0 {
+                assert!(phi_delta(p, p2).abs() < 1e-9, "{p} {p2}");
+            }
+        }
+        assert_eq!(deg_from_dir([0.0, 0.0, 1.0]), (0.0, 0.0));
+    }
+
+    #[test]
+    fn wrapping() {
+        assert_eq!(wrap_phi(-90.0), 270.0);
+        assert_eq!(wrap_phi(720.0), 0.0);
+        assert_eq!(wrap_phi(-1e-20), 0.0);
+        assert_eq!(wrap_phi(-0.0).to_bits(), 0.0f64.to_bits());
+        assert_eq!(phi_delta(10.0, 350.0), 20.0);
+        assert_eq!(phi_delta(350.0, 10.0), -20.0);
+        assert_eq!(mirror_deg(15.0, 270.0), (15.0, 90.0));
+    }
+
+    #[test]
+    fn small_angles_are_precise() {
+        let a = dir_from_deg(30.0, 0.0);
+        let b = dir_from_deg(30.0 + 1e-6, 0.0);
+        let got = angle_between(a, b).to_degrees();
+        assert!((got - 1e-6).abs() < 1e-12, "{got}");
+    }
+}

@@ -1,0 +1,248 @@
+//! From samples to a [`Material`]: options, the parallel per-incidence fit, f16 rounding,
+//! sample positions and metadata.
+
+use crate::error::{Error, Result};
+use crate::fit::{rel, CriticalAngle, FitContext, PeakMode};
+use crate::format::quantize_record_f16;
+use crate::material::{DirectionSet, Material, Precision, SamplePositions, MAX_TERMS};
+use crate::samples::{IncidentSamples, SampleSet};
+use crate::sh::MAX_SH_LEVEL;
+use crate::spectral::{SpectralBasis, SpectralSpace};
+use rayon::prelude::*;
+
+/// Encoder settings; the CLI's flags map one to one onto these fields.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EncodeOptions {
+    pub basis: SpectralBasis,
+    /// Number of spectral terms K (the paper: 13 = a0, a1..a6, b1..b6).
+    pub terms: usize,
+    /// SH level L; `None` picks the paper's choice for the peak mode (1 with a peak, its Fig. 6;
+    /// 4 without, its Fig. 4).
+    pub sh_level: Option<usize>,
+    pub peak: PeakMode,
+    pub critical_angle: CriticalAngle,
+    pub precision: Precision,
+    /// Store the outgoing directions seen (`samp` chunk) so `decode` can write them back.
+    pub sample_positions: bool,
+    /// `--metadata KEY=VALUE` pairs, in the order given.
+    pub provenance: Vec<(String, String)>,
+    /// Names of the input files, recorded in the metadata.
+    pub inputs: Vec<String>,
+}
+
+impl Default for EncodeOptions {
+    fn default() -> Self {
+        EncodeOptions {
+            basis: SpectralBasis::PeriodicFourier,
+            terms: 13,
+            sh_level: None,
+            peak: PeakMode::Paper,
+            critical_angle: CriticalAngle::Auto,
+            precision: Precision::F32,
+            sample_positions: true,
+            provenance: Vec::new(),
+            inputs: Vec::new(),
+        }
+    }
+}
+
+impl EncodeOptions {
+    pub fn effective_sh_level(&self) -> usize {
+        self.sh_level.unwrap_or(match self.peak {
+            PeakMode::Paper => 1,
+            PeakMode::None => 4,
+        })
+    }
+
+    fn check(&self, set: &SampleSet) -> Result<()> {
+        let w = set.wavelengths.len();
+        if self.terms == 0 || self.terms > MAX_TERMS {
+            return Err(Error::Parameter(format!(
+                "--terms {} is outside 1..={MAX_TERMS}",
+                self.terms
+            )));
+        }
+        if self.terms > w {
+            return Err(Error::Parameter(format!(
+                "--terms {} exceeds the {w} wavelength samples of the input: a spectral series \
+                 cannot have more terms than samples (use --terms {w} or fewer)",
+                self.terms
+            )));
+        }
+        let l = self.effective_sh_level();
+        if l > MAX_SH_LEVEL {
+            return Err(Error::Parameter(format!(
+                "--sh-level {l} is above the maximum {MAX_SH_LEVEL}"
+            )));
+        }
+        if let CriticalAngle::Fixed(g) = self.critical_angle {
+            if !(g.is_finite() && (0.0..=180.0).contains(&g)) {
+                return Err(Error::Parameter(format!(
+                    "--critical-angle {g} is outside 0..=180 degrees"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The result of an encode: the material and the figures an encoder reports.
+#[derive(Debug, Clone)]
+pub struct Encoded {
+    pub material: Material,
+    /// Relative L2 error over every sample of the input, as stored.
+    pub rel_error: f64,
+    /// Size of the input as a raw float32 table.
+    pub raw_bytes: usize,
+}
+
+/// Fits every incident direction (in parallel; the result does not depend on the thread count,
+/// since each incidence is fitted alone and results are collected in order).
+pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
+    set.validate()
+        .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
+    opts.check(set)?;
+    let lambda_min = set.wavelengths[0];
+    let lambda_max = *set.wavelengths.last().unwrap();
+    let spectral = SpectralSpace {
+        basis: opts.basis,
+        terms: opts.terms,
+        lambda_min,
+        lambda_max,
+    };
+    spectral.validate().map_err(Error::Parameter)?;
+    let ctx = FitContext::new(
+        spectral.clone(),
+        &set.wavelengths,
+        opts.effective_sh_level(),
+        opts.peak,
+        opts.critical_angle,
+    );
+    let fitted: Vec<_> = set
+        .incidences
+        .par_iter()
+        .map(|s| {
+            let mut f = ctx.fit(s).map_err(|e| {
+                Error::Parameter(format!("incidence ({}, {}): {e}", s.theta_i, s.phi_i))
+            })?;
+            if opts.precision == Precision::F16 {
+                quantize_record_f16(&mut f.record);
+                let (e, r) = ctx.measure(&f.record, s);
+                f.sq_error = e;
+                f.record.rel_error = rel(e, r) as f32;
+            }
+            Ok(f)
+        })
+        .collect::<Result<_>>()?;
+    let (mut sq_e, mut sq_r) = (0.0, 0.0);
+    let mut records = Vec::with_capacity(fitted.len());
+    for f in fitted {
+        sq_e += f.sq_error;
+        sq_r += f.sq_reference;
+        records.push(f.record);
+    }
+    let rel_error = rel(sq_e, sq_r);
+    let metadata = metadata_json(opts, rel_error);
+    let material = Material {
+        version_minor: crate::format::VERSION_MINOR,
+        spectral,
+        sh_level: opts.effective_sh_level(),
+        precision: opts.precision,
+        isotropic: set.is_isotropic(),
+        wavelengths: set.wavelengths.iter().map(|&w| w as f32).collect(),
+        records,
+        metadata: Some(metadata),
+        sample_positions: opts
+            .sample_positions
+            .then(|| sample_positions(&set.incidences)),
+    };
+    material
+        .validate()
+        .map_err(|e| Error::Parameter(format!("encoder produced an invalid material: {e}")))?;
+    Ok(Encoded {
+        material,
+        rel_error,
+        raw_bytes: set.raw_f32_bytes(),
+    })
+}
+
+fn metadata_json(opts: &EncodeOptions, rel_error: f64) -> String {
+    let critical = match opts.critical_angle {
+        CriticalAngle::Auto => serde_json::Value::from("auto"),
+        CriticalAngle::Fixed(g) => serde_json::Value::from(g),
+    };
+    let provenance: serde_json::Map<String, serde_json::Value> = opts
+        .provenance
+        .iter()
+        .map(|(k, v)| (k.clone(), serde_json::Value::from(v.clone())))
+        .collect();
+    let v = serde_json::json!({
+        "encoder": format!("sbrdf {}", env!("CARGO_PKG_VERSION")),
+        "options": {
+            "basis": opts.basis.name(),
+            "terms": opts.terms,
+            "sh_level": opts.effective_sh_level(),
+            "peak": match opts.peak { PeakMode::Paper => "paper", PeakMode::None => "none" },
+            "critical_angle": critical,
+            "precision": opts.precision.name(),
+        },
+        "inputs": opts.inputs,
+        "provenance": provenance,
+        "rel_error": rel_error,
+    });
+    v.to_string()
+}
+
+/// Describes each incidence's outgoing directions, as a grid where they form one exactly
+/// (to 1e-5°), sharing identical sets between incidences.
+fn sample_positions(incidences: &[IncidentSamples]) -> SamplePositions {
+    let mut sets: Vec<DirectionSet> = Vec::new();
+    let mut set_of_incidence = Vec::with_capacity(incidences.len());
+    for s in incidences {
+        let set = as_grid(&s.directions).unwrap_or_else(|| {
+            DirectionSet::List(
+                s.directions
+                    .iter()
+                    .map(|d| [d[0] as f32, d[1] as f32])
+                    .collect(),
+            )
+        });
+        let index = match sets.iter().position(|x| *x == set) {
+            Some(i) => i,
+            None => {
+                sets.push(set);
+                sets.len() - 1
+            }
+        };
+        set_of_incidence.push(index as u32);
+    }
+    SamplePositions {
+        sets,
+        set_of_incidence,
+    }
+}
+
+fn as_grid(dirs: &[[f64; 2]]) -> Option<DirectionSet> {
+    let mut thetas: Vec<f64> = dirs.iter().map(|d| d[0]).collect();
+    thetas.dedup();
+    let nphi = dirs.len() / thetas.len();
+    if nphi * thetas.len() != dirs.len() {
+        return None;
+    }
+    let phis: Vec<f64> = dirs[..nphi].iter().map(|d| d[1]).collect();
+    let step = |v: &[f64]| if v.len() > 1 { v[1] - v[0] } else { 0.0 };
+    let grid = DirectionSet::Grid {
+        theta0: thetas[0] as f32,
+        dtheta: step(&thetas) as f32,
+        ntheta: thetas.len() as u32,
+        phi0: phis[0] as f32,
+        dphi: step(&phis) as f32,
+        nphi: nphi as u32,
+    };
+    let ok = grid
+        .directions()
+        .iter()
+        .zip(dirs)
+        .all(|(g, d)| (g[0] - d[0]).abs() <= 1e-5 && (g[1] - d[1]).abs() <= 1e-5);
+    ok.then_some(grid)
+}

@@ -1,0 +1,717 @@
+//! The `.sbrdf` byte format, version 1.0: writer and reader.
+//!
+//! Normative text: `spec/FORMAT.md`. Layout: a 10-byte signature, then chunks of
+//! `length: u32 | type: [u8; 4] | data | crc: u32` (CRC-32/ISO-HDLC over type and data), all
+//! little-endian. A first letter in upper case marks a critical chunk, lower case an ancillary
+//! one that readers may skip.
+
+use crate::error::{Error, Location, Result};
+use crate::material::*;
+use crate::sh::{sh_count, MAX_SH_LEVEL};
+use crate::spectral::{SpectralBasis, SpectralSpace};
+use half::f16;
+
+/// The first ten bytes of every file. 0x89 catches 7-bit transports, "\r\n" and "\n" catch
+/// line-ending translation, 0x1A stops `type` on old systems (PNG's design).
+pub const SIGNATURE: [u8; 10] = [0x89, b'S', b'B', b'R', b'D', b'F', 0x0D, 0x0A, 0x1A, 0x0A];
+pub const VERSION_MAJOR: u16 = 1;
+pub const VERSION_MINOR: u16 = 0;
+/// The only angle convention so far (see `spec/EVALUATION.md`).
+pub const ANGLE_CONVENTION: u8 = 1;
+
+pub const CHUNK_HEAD: [u8; 4] = *b"HEAD";
+pub const CHUNK_RECD: [u8; 4] = *b"RECD";
+pub const CHUNK_ENDF: [u8; 4] = *b"ENDF";
+pub const CHUNK_META: [u8; 4] = *b"meta";
+pub const CHUNK_SAMP: [u8; 4] = *b"samp";
+
+const HEAD_FIXED: usize = 40;
+const RECD_FIXED: usize = 36;
+const LOBE_FIXED: usize = 4;
+/// The largest chunk the format allows (as PNG: 2³¹ − 1).
+const MAX_CHUNK: usize = 0x7FFF_FFFF;
+
+/// Resource limits for reading untrusted files.
+#[derive(Debug, Clone)]
+pub struct Limits {
+    /// Files larger than this are refused before parsing. Every allocation the reader makes is
+    /// bounded by the bytes actually present, so memory use stays within about twice this.
+    pub max_file_bytes: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_file_bytes: 256 << 20,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing
+
+/// The power-of-two scale that maps a record's largest magnitude into [2¹⁴, 2¹⁵] for f16
+/// storage, keeping values down to ~2⁻²⁹ of the largest in f16's normal range.
+pub fn f16_scale(values: impl Iterator<Item = f32>) -> f32 {
+    let max = values.fold(0.0f64, |m, v| m.max((v as f64).abs()));
+    if max == 0.0 || !max.is_finite() {
+        return 1.0;
+    }
+    let mut scale = 1.0f64;
+    while max / scale > 32768.0 && scale < 2f64.powi(127) {
+        scale *= 2.0;
+    }
+    while max / scale <= 16384.0 && scale > 2f64.powi(-126) {
+        scale *= 0.5;
+    }
+    scale as f32
+}
+
+/// Rounds a record's stored values to what f16 storage will hold, in place, and returns the
+/// scale. The encoder calls this before measuring its error, so the error it records is honest.
+pub fn quantize_record_f16(r: &mut IncidentRecord) -> f32 {
+    let scale = record_scale(r);
+    let q = |v: &mut f32| *v = f16::from_f32(*v / scale).to_f32() * scale;
+    r.sh.iter_mut().for_each(q);
+    for l in &mut r.lobes {
+        l.amplitude.iter_mut().for_each(q);
+    }
+    scale
+}
+
+fn record_scale(r: &IncidentRecord) -> f32 {
+    f16_scale(
+        r.sh.iter()
+            .copied()
+            .chain(r.lobes.iter().flat_map(|l| l.amplitude.iter().copied())),
+    )
+}
+
+fn push_chunk(out: &mut Vec<u8>, kind: [u8; 4], data: &[u8]) {
+    out.extend_from_slice(&(data.len() as u32).to_le_bytes());
+    out.extend_from_slice(&kind);
+    out.extend_from_slice(data);
+    let mut h = crc32fast::Hasher::new();
+    h.update(&kind);
+    h.update(data);
+    out.extend_from_slice(&h.finalize().to_le_bytes());
+}
+
+/// Serialises a material. Fails only if it breaks an invariant of the format.
+pub fn write_material(m: &Material) -> Result<Vec<u8>> {
+    m.validate()
+        .map_err(|e| Error::Parameter(format!("cannot write this material: {e}")))?;
+    let k = m.spectral.terms;
+    let p = m.sh_count();
+    let mut out = Vec::new();
+    out.extend_from_slice(&SIGNATURE);
+
+    let mut d = Vec::with_capacity(HEAD_FIXED + 4 * m.wavelengths.len() + 8 * m.records.len());
+    d.extend_from_slice(&VERSION_MAJOR.to_le_bytes());
+    d.extend_from_slice(&VERSION_MINOR.to_le_bytes());
+    d.extend_from_slice(&(m.isotropic as u32).to_le_bytes());
+    d.push(m.spectral.basis.code());
+    d.push(m.precision.code());
+    d.push(m.sh_level as u8);
+    d.push(ANGLE_CONVENTION);
+    d.extend_from_slice(&(k as u16).to_le_bytes());
+    d.extend_from_slice(&0u16.to_le_bytes());
+    d.extend_from_slice(&m.spectral.lambda_min.to_le_bytes());
+    d.extend_from_slice(&m.spectral.lambda_max.to_le_bytes());
+    d.extend_from_slice(&(m.wavelengths.len() as u32).to_le_bytes());
+    d.extend_from_slice(&(m.records.len() as u32).to_le_bytes());
+    for w in &m.wavelengths {
+        d.extend_from_slice(&w.to_le_bytes());
+    }
+    for r in &m.records {
+        d.extend_from_slice(&r.theta_i.to_le_bytes());
+        d.extend_from_slice(&r.phi_i.to_le_bytes());
+    }
+    push_chunk(&mut out, CHUNK_HEAD, &d);
+
+    if let Some(meta) = &m.metadata {
+        push_chunk(&mut out, CHUNK_META, meta.as_bytes());
+    }
+    if let Some(sp) = &m.sample_positions {
+        let mut d = Vec::new();
+        d.extend_from_slice(&(sp.sets.len() as u32).to_le_bytes());
+        for s in &sp.sets {
+            match s {
+                DirectionSet::Grid {
+                    theta0,
+                    dtheta,
+                    ntheta,
+                    phi0,
+                    dphi,
+                    nphi,
+                } => {
+                    d.push(0);
+                    for v in [theta0, dtheta] {
+                        d.extend_from_slice(&v.to_le_bytes());
+                    }
+                    d.extend_from_slice(&ntheta.to_le_bytes());
+                    for v in [phi0, dphi] {
+                        d.extend_from_slice(&v.to_le_bytes());
+                    }
+                    d.extend_from_slice(&nphi.to_le_bytes());
+                }
+                DirectionSet::List(v) => {
+                    d.push(1);
+                    d.extend_from_slice(&(v.len() as u32).to_le_bytes());
+                    for dir in v {
+                        d.extend_from_slice(&dir[0].to_le_bytes());
+                        d.extend_from_slice(&dir[1].to_le_bytes());
+                    }
+                }
+            }
+        }
+        for i in &sp.set_of_incidence {
+            d.extend_from_slice(&i.to_le_bytes());
+        }
+        push_chunk(&mut out, CHUNK_SAMP, &d);
+    }
+
+    let s = m.precision.bytes();
+    for (index, r) in m.records.iter().enumerate() {
+        let lobe_bytes = LOBE_FIXED + k * s + 4 * k;
+        let mut d = Vec::with_capacity(RECD_FIXED + k * p * s + r.lobes.len() * lobe_bytes);
+        let scale = match m.precision {
+            Precision::F32 => 1.0f32,
+            Precision::F16 => record_scale(r),
+        };
+        d.extend_from_slice(&(index as u32).to_le_bytes());
+        for v in [
+            r.theta_i,
+            r.phi_i,
+            r.theta_p,
+            r.phi_p,
+            r.rel_error,
+            r.critical_angle,
+            scale,
+        ] {
+            d.extend_from_slice(&v.to_le_bytes());
+        }
+        d.push(r.lobes.len() as u8);
+        d.extend_from_slice(&[0, 0, 0]);
+        let put = |d: &mut Vec<u8>, v: f32| match m.precision {
+            Precision::F32 => d.extend_from_slice(&v.to_le_bytes()),
+            Precision::F16 => d.extend_from_slice(&f16::from_f32(v / scale).to_le_bytes()),
+        };
+        for &v in &r.sh {
+            put(&mut d, v);
+        }
+        for lobe in &r.lobes {
+            d.push(lobe.kind.code());
+            d.extend_from_slice(&[0, 0, 0]);
+            for &v in &lobe.amplitude {
+                put(&mut d, v);
+            }
+            for &v in &lobe.width {
+                d.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        push_chunk(&mut out, CHUNK_RECD, &d);
+    }
+    push_chunk(&mut out, CHUNK_ENDF, &[]);
+    Ok(out)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading
+
+/// Reads little-endian fields from one chunk's data, reporting file offsets in errors.
+struct Fields<'a> {
+    data: &'a [u8],
+    pos: usize,
+    /// File offset of data[0].
+    base: u64,
+    chunk: [u8; 4],
+}
+
+impl<'a> Fields<'a> {
+    fn at(&self) -> Location {
+        Location {
+            offset: self.base + self.pos as u64,
+            chunk: Some(self.chunk),
+        }
+    }
+    fn malformed(&self, message: impl Into<String>) -> Error {
+        Error::Format {
+            at: self.at(),
+            message: message.into(),
+        }
+    }
+    fn unsupported(&self, message: impl Into<String>) -> Error {
+        Error::Unsupported {
+            at: self.at(),
+            message: message.into(),
+        }
+    }
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
+        if self.data.len() - self.pos < n {
+            return Err(self.malformed(format!(
+                "chunk ends before its field '{what}' ({} bytes left, {n} needed)",
+                self.data.len() - self.pos
+            )));
+        }
+        let s = &self.data[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    fn remaining(&self) -> usize {
+        self.data.len() - self.pos
+    }
+    fn u8(&mut self, what: &str) -> Result<u8> {
+        Ok(self.take(1, what)?[0])
+    }
+    fn u16(&mut self, what: &str) -> Result<u16> {
+        Ok(u16::from_le_bytes(self.take(2, what)?.try_into().unwrap()))
+    }
+    fn u32(&mut self, what: &str) -> Result<u32> {
+        Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn f32(&mut self, what: &str) -> Result<f32> {
+        Ok(f32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn f64(&mut self, what: &str) -> Result<f64> {
+        Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
+    }
+    fn stored(&mut self, precision: Precision, scale: f32, what: &str) -> Result<f32> {
+        Ok(match precision {
+            Precision::F32 => self.f32(what)?,
+            Precision::F16 => {
+                f16::from_le_bytes(self.take(2, what)?.try_into().unwrap()).to_f32() * scale
+            }
+        })
+    }
+    fn zero(&mut self, n: usize, what: &str) -> Result<()> {
+        let at = self.at();
+        if self.take(n, what)?.iter().any(|&b| b != 0) {
+            return Err(Error::Format {
+                at,
+                message: format!("reserved field '{what}' is not zero"),
+            });
+        }
+        Ok(())
+    }
+    fn finish(&self) -> Result<()> {
+        if self.remaining() != 0 {
+            return Err(self.malformed(format!(
+                "{} unexpected bytes at the end of the chunk",
+                self.remaining()
+            )));
+        }
+        Ok(())
+    }
+}
+
+struct Head {
+    spectral: SpectralSpace,
+    sh_level: usize,
+    precision: Precision,
+    isotropic: bool,
+    minor: u16,
+    wavelengths: Vec<f32>,
+    incidences: Vec<[f32; 2]>,
+}
+
+fn read_head(f: &mut Fields) -> Result<Head> {
+    let major = f.u16("version_major")?;
+    let minor = f.u16("version_minor")?;
+    if major != VERSION_MAJOR {
+        return Err(f.unsupported(format!(
+            "the file is format version {major}.{minor}; this sbrdf reads version {VERSION_MAJOR}.x \
+             (a newer major version changes meaning: upgrade sbrdf to read it)"
+        )));
+    }
+    let flags = f.u32("flags")?;
+    if flags & !1 != 0 {
+        return Err(f.unsupported(format!("unknown flag bits {flags:#x} set")));
+    }
+    let basis_code = f.u8("spectral_basis")?;
+    let basis = SpectralBasis::from_code(basis_code)
+        .ok_or_else(|| f.unsupported(format!("unknown spectral basis code {basis_code}")))?;
+    let prec_code = f.u8("precision")?;
+    let precision = Precision::from_code(prec_code)
+        .ok_or_else(|| f.unsupported(format!("unknown storage precision code {prec_code}")))?;
+    let sh_level = f.u8("sh_level")? as usize;
+    if sh_level > MAX_SH_LEVEL {
+        return Err(f.malformed(format!("SH level {sh_level} exceeds {MAX_SH_LEVEL}")));
+    }
+    let conv = f.u8("angle_convention")?;
+    if conv != ANGLE_CONVENTION {
+        return Err(f.unsupported(format!("unknown angle convention {conv}")));
+    }
+    let terms = f.u16("terms")? as usize;
+    if terms == 0 || terms > MAX_TERMS {
+        return Err(f.malformed(format!("{terms} spectral terms (1 to {MAX_TERMS} allowed)")));
+    }
+    f.zero(2, "reserved")?;
+    let lambda_min = f.f64("lambda_min")?;
+    let lambda_max = f.f64("lambda_max")?;
+    let w = f.u32("wavelength_count")? as usize;
+    let n = f.u32("incident_count")? as usize;
+    // Check the counts against the bytes present before allocating anything for them.
+    let need = (w as u64) * 4 + (n as u64) * 8;
+    if need != f.remaining() as u64 {
+        return Err(f.malformed(format!(
+            "{w} wavelengths and {n} incident directions need {need} bytes, the chunk has {}",
+            f.remaining()
+        )));
+    }
+    let mut wavelengths = Vec::with_capacity(w);
+    for _ in 0..w {
+        wavelengths.push(f.f32("wavelength")?);
+    }
+    let mut incidences = Vec::with_capacity(n);
+    for _ in 0..n {
+        incidences.push([f.f32("theta_i")?, f.f32("phi_i")?]);
+    }
+    f.finish()?;
+    Ok(Head {
+        spectral: SpectralSpace {
+            basis,
+            terms,
+            lambda_min,
+            lambda_max,
+        },
+        sh_level,
+        precision,
+        isotropic: flags & 1 == 1,
+        minor,
+        wavelengths,
+        incidences,
+    })
+}
+
+fn read_record(f: &mut Fields, h: &Head, expected_index: usize) -> Result<IncidentRecord> {
+    let index = f.u32("index")? as usize;
+    if index != expected_index {
+        return Err(f.malformed(format!(
+            "record index {index} where record {expected_index} was expected"
+        )));
+    }
+    let theta_i = f.f32("theta_i")?;
+    let phi_i = f.f32("phi_i")?;
+    let [ht, hp] = h.incidences[index];
+    if theta_i.to_bits() != ht.to_bits() || phi_i.to_bits() != hp.to_bits() {
+        return Err(f.malformed(format!(
+            "record {index} is for incidence ({theta_i}, {phi_i}) but HEAD lists ({ht}, {hp})"
+        )));
+    }
+    let theta_p = f.f32("theta_p")?;
+    let phi_p = f.f32("phi_p")?;
+    let rel_error = f.f32("rel_error")?;
+    let critical_angle = f.f32("critical_angle")?;
+    let scale = f.f32("scale")?;
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(f.malformed(format!("record scale {scale} is not a positive number")));
+    }
+    let lobe_count = f.u8("lobe_count")? as usize;
+    if lobe_count > MAX_LOBES {
+        return Err(f.malformed(format!("{lobe_count} lobes exceed {MAX_LOBES}")));
+    }
+    f.zero(3, "reserved")?;
+    let k = h.spectral.terms;
+    let p = sh_count(h.sh_level);
+    let s = h.precision.bytes();
+    let need = k * p * s + lobe_count * (LOBE_FIXED + k * s + 4 * k);
+    if need != f.remaining() {
+        return Err(f.malformed(format!(
+            "{k} terms × {p} SH coefficients and {lobe_count} lobes need {need} bytes, \
+             the record has {}",
+            f.remaining()
+        )));
+    }
+    let mut sh = Vec::with_capacity(k * p);
+    for _ in 0..k * p {
+        sh.push(f.stored(h.precision, scale, "sh")?);
+    }
+    let mut lobes = Vec::with_capacity(lobe_count);
+    for _ in 0..lobe_count {
+        let code = f.u8("lobe_kind")?;
+        let kind = LobeKind::from_code(code)
+            .ok_or_else(|| f.unsupported(format!("unknown lobe kind {code}")))?;
+        f.zero(3, "reserved")?;
+        let mut amplitude = Vec::with_capacity(k);
+        for _ in 0..k {
+            amplitude.push(f.stored(h.precision, scale, "amplitude")?);
+        }
+        let mut width = Vec::with_capacity(k);
+        for _ in 0..k {
+            width.push(f.f32("width")?);
+        }
+        lobes.push(Lobe {
+            kind,
+            amplitude,
+            width,
+        });
+    }
+    f.finish()?;
+    Ok(IncidentRecord {
+        theta_i,
+        phi_i,
+        theta_p,
+        phi_p,
+        rel_error,
+        critical_angle,
+        sh,
+        lobes,
+    })
+}
+
+fn read_samp(f: &mut Fields, n: usize) -> Result<SamplePositions> {
+    let set_count = f.u32("set_count")? as usize;
+    // Each set takes at least 5 bytes, each incidence 4: bound the counts by the bytes present.
+    if set_count == 0 || set_count as u64 * 5 + n as u64 * 4 > f.remaining() as u64 {
+        return Err(f.malformed(format!(
+            "{set_count} direction sets for {n} incidences cannot fit in {} bytes",
+            f.remaining()
+        )));
+    }
+    let mut sets = Vec::with_capacity(set_count);
+    for _ in 0..set_count {
+        match f.u8("set_kind")? {
+            0 => {
+                let theta0 = f.f32("theta0")?;
+                let dtheta = f.f32("dtheta")?;
+                let ntheta = f.u32("ntheta")?;
+                let phi0 = f.f32("phi0")?;
+                let dphi = f.f32("dphi")?;
+                let nphi = f.u32("nphi")?;
+                // A grid costs 24 bytes but expands: bound its size like any other allocation.
+                if ntheta as u64 * nphi as u64 > (MAX_CHUNK / 8) as u64 {
+                    return Err(f.malformed(format!("grid of {ntheta}×{nphi} directions")));
+                }
+                sets.push(DirectionSet::Grid {
+                    theta0,
+                    dtheta,
+                    ntheta,
+                    phi0,
+                    dphi,
+                    nphi,
+                });
+            }
+            1 => {
+                let count = f.u32("direction_count")? as usize;
+                if count as u64 * 8 > f.remaining() as u64 {
+                    return Err(f.malformed(format!(
+                        "{count} directions cannot fit in {} bytes",
+                        f.remaining()
+                    )));
+                }
+                let mut v = Vec::with_capacity(count);
+                for _ in 0..count {
+                    v.push([f.f32("theta_o")?, f.f32("phi_o")?]);
+                }
+                sets.push(DirectionSet::List(v));
+            }
+            other => return Err(f.unsupported(format!("unknown direction set kind {other}"))),
+        }
+    }
+    let mut set_of_incidence = Vec::with_capacity(n);
+    for _ in 0..n {
+        set_of_incidence.push(f.u32("set_index")?);
+    }
+    f.finish()?;
+    Ok(SamplePositions {
+        sets,
+        set_of_incidence,
+    })
+}
+
+fn location(offset: usize, chunk: Option<[u8; 4]>) -> Location {
+    Location {
+        offset: offset as u64,
+        chunk,
+    }
+}
+
+/// Parses and validates a whole file. Every CRC is checked (except in fuzzing builds, so the
+/// fuzzer can reach the parser behind them).
+pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
+    if bytes.len() > limits.max_file_bytes {
+        return Err(Error::LimitsExceeded(format!(
+            "file of {} bytes exceeds the limit of {} bytes",
+            bytes.len(),
+            limits.max_file_bytes
+        )));
+    }
+    let malformed = |offset: usize, chunk: Option<[u8; 4]>, message: String| Error::Format {
+        at: location(offset, chunk),
+        message,
+    };
+    if bytes.len() < SIGNATURE.len() || bytes[..SIGNATURE.len()] != SIGNATURE {
+        let message = if bytes.starts_with(b"\x89SBRDF") {
+            "the signature is damaged: the file went through a text-mode transfer that changed \
+             line endings, or was truncated"
+        } else if bytes.len() < SIGNATURE.len() && SIGNATURE.starts_with(bytes) {
+            "the file is truncated inside its signature"
+        } else {
+            "not an sbrdf file (the signature is missing)"
+        };
+        return Err(malformed(0, None, message.into()));
+    }
+    let mut pos = SIGNATURE.len();
+    let mut head: Option<Head> = None;
+    let mut records = Vec::new();
+    let mut metadata = None;
+    let mut samples = None;
+    loop {
+        if pos == bytes.len() {
+            return Err(malformed(
+                pos,
+                None,
+                "the file ends without its ENDF chunk (truncated?)".into(),
+            ));
+        }
+        if bytes.len() - pos < 12 {
+            return Err(malformed(
+                pos,
+                None,
+                format!(
+                    "{} bytes left, too few for a chunk (truncated?)",
+                    bytes.len() - pos
+                ),
+            ));
+        }
+        let len = u32::from_le_bytes(bytes[pos..pos + 4].try_into().unwrap()) as usize;
+        let kind: [u8; 4] = bytes[pos + 4..pos + 8].try_into().unwrap();
+        if !kind.iter().all(|b| b.is_ascii_alphabetic()) {
+            return Err(malformed(
+                pos + 4,
+                None,
+                format!("chunk type {kind:02x?} is not four ASCII letters"),
+            ));
+        }
+        if len > MAX_CHUNK || len > bytes.len() - pos - 12 {
+            return Err(malformed(
+                pos,
+                Some(kind),
+                format!(
+                    "chunk claims {len} bytes of data but only {} remain (truncated?)",
+                    bytes.len() - pos - 12
+                ),
+            ));
+        }
+        let data = &bytes[pos + 8..pos + 8 + len];
+        let stored = u32::from_le_bytes(bytes[pos + 8 + len..pos + 12 + len].try_into().unwrap());
+        let mut h = crc32fast::Hasher::new();
+        h.update(&kind);
+        h.update(data);
+        let computed = h.finalize();
+        if stored != computed && !cfg!(fuzzing) {
+            return Err(malformed(
+                pos + 8 + len,
+                Some(kind),
+                format!(
+                    "CRC mismatch: stored {stored:#010x}, computed {computed:#010x} (the chunk is damaged)"
+                ),
+            ));
+        }
+        let mut f = Fields {
+            data,
+            pos: 0,
+            base: (pos + 8) as u64,
+            chunk: kind,
+        };
+        let next = pos + 12 + len;
+        match (&kind, &head) {
+            (&CHUNK_HEAD, None) => head = Some(read_head(&mut f)?),
+            (_, None) => {
+                return Err(malformed(
+                    pos,
+                    Some(kind),
+                    "the first chunk must be HEAD".into(),
+                ))
+            }
+            (&CHUNK_HEAD, Some(_)) => {
+                return Err(malformed(pos, Some(kind), "a second HEAD chunk".into()))
+            }
+            (&CHUNK_RECD, Some(h)) => {
+                if records.len() == h.incidences.len() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        format!(
+                            "more than the {} records HEAD announces",
+                            h.incidences.len()
+                        ),
+                    ));
+                }
+                records.push(read_record(&mut f, h, records.len())?);
+            }
+            (&CHUNK_META, Some(_)) => {
+                if metadata.is_some() {
+                    return Err(malformed(pos, Some(kind), "a second meta chunk".into()));
+                }
+                let text = std::str::from_utf8(data).map_err(|e| {
+                    malformed(
+                        pos + 8 + e.valid_up_to(),
+                        Some(kind),
+                        "metadata is not UTF-8".into(),
+                    )
+                })?;
+                metadata = Some(text.to_string());
+            }
+            (&CHUNK_SAMP, Some(h)) => {
+                if samples.is_some() {
+                    return Err(malformed(pos, Some(kind), "a second samp chunk".into()));
+                }
+                samples = Some(read_samp(&mut f, h.incidences.len())?);
+            }
+            (&CHUNK_ENDF, Some(h)) => {
+                if len != 0 {
+                    return Err(malformed(pos, Some(kind), "ENDF must be empty".into()));
+                }
+                if records.len() != h.incidences.len() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        format!(
+                            "{} records present, HEAD announces {}",
+                            records.len(),
+                            h.incidences.len()
+                        ),
+                    ));
+                }
+                if next != bytes.len() {
+                    return Err(malformed(
+                        next,
+                        None,
+                        format!("{} bytes after the ENDF chunk", bytes.len() - next),
+                    ));
+                }
+                break;
+            }
+            (_, Some(_)) => {
+                if kind[0].is_ascii_uppercase() {
+                    return Err(Error::Unsupported {
+                        at: location(pos, Some(kind)),
+                        message: format!(
+                            "unknown critical chunk '{}': the file needs a newer sbrdf",
+                            String::from_utf8_lossy(&kind)
+                        ),
+                    });
+                }
+                // Unknown ancillary chunk: skipped by design.
+            }
+        }
+        pos = next;
+    }
+    let h = head.expect("loop exits only after HEAD");
+    let m = Material {
+        version_minor: h.minor,
+        spectral: h.spectral,
+        sh_level: h.sh_level,
+        precision: h.precision,
+        isotropic: h.isotropic,
+        wavelengths: h.wavelengths,
+        records,
+        metadata,
+        sample_positions: samples,
+    };
+    m.validate()
+        .map_err(|message| malformed(SIGNATURE.len(), None, message))?;
+    Ok(m)
+}

@@ -1,0 +1,627 @@
+//! `sbrdf`: the command-line front end. All logic lives in the library; this file parses
+//! arguments, calls it, and turns errors into messages and exit codes.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use sbrdf::csv_input::{self, Layout};
+use sbrdf::encoder::{encode, EncodeOptions};
+use sbrdf::fit::{CriticalAngle, PeakMode};
+use sbrdf::output::{write_atomic, write_bytes_atomic};
+use sbrdf::samples::SampleSet;
+use sbrdf::synth::{paper_grid, sample_material, Phong, SpectrumTable};
+use sbrdf::{Decoder, Error, Precision, Result};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "sbrdf",
+    version,
+    about = "Compact, archival spectral BRDFs: encode samples, decode, evaluate, inspect",
+    long_about = "sbrdf stores a sampled spectral BRDF as, per incident direction, spherical-harmonic \
+coefficients of each spectral coefficient plus a specular peak (Xu & Sun). Angles are in degrees \
+(θ from the normal, φ counter-clockwise from +x), wavelengths in nm, values in 1/sr.",
+    after_help = "Examples:\n  \
+sbrdf synth phong --diffuse green --specular white --kd 1 --ks 15 --n 15 --incident 15,0 -o phong.csv\n  \
+sbrdf encode phong.csv -o phong.sbrdf\n  \
+sbrdf info phong.sbrdf\n  \
+sbrdf eval phong.sbrdf --incident 15,0 --outgoing 15,180 --wavelengths 450,550,650\n  \
+sbrdf decode phong.sbrdf -o back.csv --like phong.csv\n  \
+sbrdf verify phong.sbrdf"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Fit sampled BRDFs (CSV) and write an .sbrdf file.
+    #[command(
+        after_help = "CSV layouts (found by header name; '#' lines are comments):\n  \
+long: theta_i,phi_i,theta_o,phi_o,wavelength_nm,value   (one sample a row)\n  \
+wide: theta_i,phi_i,theta_o,phi_o,400,410,...           (one column per wavelength; '400nm' works too)\n\n\
+Examples:\n  sbrdf encode material.csv -o material.sbrdf\n  \
+sbrdf encode ti*.csv -o m.sbrdf --sh-level 2 --precision f16 --metadata source=lab42\n  \
+sbrdf encode material.csv -o direct.sbrdf --peak none --sh-level 4"
+    )]
+    Encode(EncodeArgs),
+    /// Write the reconstruction as CSV, at a reference file's positions or at the encoder's.
+    #[command(
+        after_help = "Examples:\n  sbrdf decode m.sbrdf -o back.csv --like material.csv\n  \
+sbrdf decode m.sbrdf -o back.csv        (at the sample positions the encoder saw, wide layout)"
+    )]
+    Decode(DecodeArgs),
+    /// Print the spectrum at one pair of directions as CSV `wavelength_nm,value`.
+    #[command(
+        after_help = "Example:\n  sbrdf eval m.sbrdf --incident 15,0 --outgoing 15,180 --wavelengths 450,550\n\n\
+Directions below the horizon (θ > 90) give 0. This version answers an incident direction that is \
+not stored with the nearest stored one (isotropic files: rotated to φi = 0 first)."
+    )]
+    Eval(EvalArgs),
+    /// Describe a file: its settings, records and metadata.
+    Info(InfoArgs),
+    /// Check every CRC and the whole structure of a file.
+    Verify(VerifyArgs),
+    /// Generate test materials.
+    #[command(subcommand)]
+    Synth(SynthCommand),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum BasisArg {
+    /// The paper's periodic Fourier series (a0, a1, b1, a2, b2, …).
+    Fourier,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PeakArg {
+    /// SH background + Gaussian peak (the paper's method).
+    Paper,
+    /// SH only (the paper's baseline).
+    None,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PrecisionArg {
+    F32,
+    F16,
+}
+
+#[derive(Args)]
+struct EncodeArgs {
+    /// Input CSV files (long or wide layout); several are merged.
+    #[arg(required = true)]
+    inputs: Vec<PathBuf>,
+    /// Output .sbrdf file (written atomically).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Spectral basis.
+    #[arg(long, value_enum, default_value = "fourier")]
+    basis: BasisArg,
+    /// Number of spectral terms K (13 = a0, a1..a6, b1..b6).
+    #[arg(long, default_value_t = 13)]
+    terms: usize,
+    /// Spherical-harmonic level L [default: 1 with --peak paper, 4 with --peak none].
+    #[arg(long)]
+    sh_level: Option<usize>,
+    /// How the specular peak is represented.
+    #[arg(long, value_enum, default_value = "paper")]
+    peak: PeakArg,
+    /// Critical angle in degrees around the peak, or `auto` to minimise the error.
+    #[arg(long, default_value = "auto")]
+    critical_angle: String,
+    /// Storage precision of coefficients.
+    #[arg(long, value_enum, default_value = "f32")]
+    precision: PrecisionArg,
+    /// Provenance recorded in the file's metadata (repeatable).
+    #[arg(long, value_name = "KEY=VALUE")]
+    metadata: Vec<String>,
+    /// Do not store the outgoing sample positions (smaller file; `decode` then needs --like).
+    #[arg(long)]
+    no_sample_positions: bool,
+}
+
+#[derive(Args)]
+struct DecodeArgs {
+    input: PathBuf,
+    /// Output CSV file.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Reference CSV: write values at exactly its rows, in its layout.
+    #[arg(long, value_name = "REF")]
+    like: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct EvalArgs {
+    input: PathBuf,
+    /// Incident direction θ,φ in degrees.
+    #[arg(long, value_name = "θ,φ", allow_hyphen_values = true)]
+    incident: String,
+    /// Outgoing direction θ,φ in degrees.
+    #[arg(long, value_name = "θ,φ", allow_hyphen_values = true)]
+    outgoing: String,
+    /// Wavelengths in nm [default: the file's samples].
+    #[arg(long, value_delimiter = ',', value_name = "λ1,λ2,...")]
+    wavelengths: Option<Vec<f64>>,
+}
+
+#[derive(Args)]
+struct InfoArgs {
+    input: PathBuf,
+    /// Machine-readable output.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+struct VerifyArgs {
+    input: PathBuf,
+}
+
+#[derive(Subcommand)]
+enum SynthCommand {
+    /// The paper's Phong material: ρ = kd·Sd(λ) + ks·Ss(λ)·max(0, cos α)^n, α the angle from the
+    /// mirror direction, with ColorChecker spectra (N. Ohta) for Sd and Ss.
+    #[command(after_help = "Example (the paper's setup):\n  \
+sbrdf synth phong --diffuse green --specular white --kd 1 --ks 15 --n 15 --incident 15,0 -o phong.csv")]
+    Phong(PhongArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum LayoutArg {
+    Wide,
+    Long,
+}
+
+#[derive(Args)]
+struct PhongArgs {
+    /// Diffuse ColorChecker patch (case-insensitive; a unique prefix works: `white`).
+    #[arg(long)]
+    diffuse: String,
+    /// Specular ColorChecker patch.
+    #[arg(long)]
+    specular: String,
+    #[arg(long)]
+    kd: f64,
+    #[arg(long)]
+    ks: f64,
+    /// Phong exponent.
+    #[arg(long)]
+    n: f64,
+    /// Incident direction θ,φ in degrees (repeatable).
+    #[arg(long, required = true, value_name = "θ,φ", allow_hyphen_values = true)]
+    incident: Vec<String>,
+    /// Output CSV file.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Wavelengths MIN:MAX:STEP in nm (within 380–780).
+    #[arg(long, default_value = "400:700:10")]
+    wavelengths: String,
+    /// Outgoing θ spacing: θo = step/2, 3·step/2, … below 90.
+    #[arg(long, default_value_t = 5.0)]
+    theta_step: f64,
+    /// Outgoing φ spacing: φo = 0, step, … below 360.
+    #[arg(long, default_value_t = 5.0)]
+    phi_step: f64,
+    #[arg(long, value_enum, default_value = "wide")]
+    layout: LayoutArg,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("sbrdf: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Encode(a) => cmd_encode(a),
+        Command::Decode(a) => cmd_decode(a),
+        Command::Eval(a) => cmd_eval(a),
+        Command::Info(a) => cmd_info(a),
+        Command::Verify(a) => cmd_verify(a),
+        Command::Synth(SynthCommand::Phong(a)) => cmd_phong(a),
+    }
+}
+
+fn parse_pair(flag: &str, s: &str) -> Result<(f64, f64)> {
+    let bad = || {
+        Error::Parameter(format!(
+            "--{flag} '{s}': expected θ,φ in degrees, like 15,0"
+        ))
+    };
+    let (a, b) = s.split_once(',').ok_or_else(bad)?;
+    let t: f64 = a.trim().parse().map_err(|_| bad())?;
+    let p: f64 = b.trim().parse().map_err(|_| bad())?;
+    if !(t.is_finite() && p.is_finite()) {
+        return Err(bad());
+    }
+    Ok((t, p))
+}
+
+fn cmd_encode(a: EncodeArgs) -> Result<()> {
+    let critical_angle = match a.critical_angle.trim() {
+        "auto" => CriticalAngle::Auto,
+        s => CriticalAngle::Fixed(s.parse().map_err(|_| {
+            Error::Parameter(format!(
+                "--critical-angle '{s}': expected degrees (like 37) or 'auto'"
+            ))
+        })?),
+    };
+    let mut provenance = Vec::new();
+    for kv in &a.metadata {
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| Error::Parameter(format!("--metadata '{kv}': expected KEY=VALUE")))?;
+        provenance.push((k.trim().to_string(), v.to_string()));
+    }
+    let (set, report) = csv_input::read_samples(&a.inputs)?;
+    if report.negative_values > 0 {
+        eprintln!(
+            "sbrdf: warning: {} of {} samples are negative (kept as measured)",
+            report.negative_values,
+            set.sample_count()
+        );
+    }
+    let opts = EncodeOptions {
+        basis: match a.basis {
+            BasisArg::Fourier => sbrdf::SpectralBasis::PeriodicFourier,
+        },
+        terms: a.terms,
+        sh_level: a.sh_level,
+        peak: match a.peak {
+            PeakArg::Paper => PeakMode::Paper,
+            PeakArg::None => PeakMode::None,
+        },
+        critical_angle,
+        precision: match a.precision {
+            PrecisionArg::F32 => Precision::F32,
+            PrecisionArg::F16 => Precision::F16,
+        },
+        sample_positions: !a.no_sample_positions,
+        provenance,
+        inputs: a.inputs.iter().map(|p| p.display().to_string()).collect(),
+    };
+    let encoded = encode(&set, &opts)?;
+    let bytes = sbrdf::write_material(&encoded.material)?;
+    write_bytes_atomic(&a.output, &bytes)?;
+    let worst = encoded
+        .material
+        .records
+        .iter()
+        .max_by(|x, y| x.rel_error.total_cmp(&y.rel_error))
+        .unwrap();
+    eprintln!(
+        "sbrdf: wrote {}: {} incident directions, {} wavelengths, {} bytes ({:.1}× smaller than \
+         {} bytes of raw float32 samples); relative error {:.4} overall, worst {:.4} at ({}, {})",
+        a.output.display(),
+        encoded.material.records.len(),
+        set.wavelengths.len(),
+        bytes.len(),
+        encoded.raw_bytes as f64 / bytes.len() as f64,
+        encoded.raw_bytes,
+        encoded.rel_error,
+        worst.rel_error,
+        worst.theta_i,
+        worst.phi_i
+    );
+    Ok(())
+}
+
+fn cmd_decode(a: DecodeArgs) -> Result<()> {
+    let dec = Decoder::open(&a.input)?;
+    match &a.like {
+        Some(reference) => decode_like(&dec, reference, &a.output),
+        None => {
+            let m = dec.material();
+            let sp = m.sample_positions.as_ref().ok_or_else(|| {
+                Error::Parameter(format!(
+                    "{} stores no sample positions (encoded with --no-sample-positions): \
+                     give --like REF to name the positions",
+                    a.input.display()
+                ))
+            })?;
+            let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
+            let mut set = SampleSet {
+                wavelengths: wl.clone(),
+                incidences: Vec::new(),
+            };
+            for (i, r) in m.records.iter().enumerate() {
+                let dirs = sp.sets[sp.set_of_incidence[i] as usize].directions();
+                let mut values = vec![0.0; dirs.len() * wl.len()];
+                for (d, dir) in dirs.iter().enumerate() {
+                    dec.eval_deg(
+                        (r.theta_i as f64, r.phi_i as f64),
+                        (dir[0], dir[1]),
+                        &wl,
+                        &mut values[d * wl.len()..(d + 1) * wl.len()],
+                    );
+                }
+                set.incidences.push(sbrdf::samples::IncidentSamples {
+                    theta_i: r.theta_i as f64,
+                    phi_i: r.phi_i as f64,
+                    directions: dirs,
+                    values,
+                });
+            }
+            let note = format!(
+                "decoded by sbrdf {} from {}",
+                env!("CARGO_PKG_VERSION"),
+                a.input.display()
+            );
+            write_atomic(&a.output, |w| csv_input::write_wide(&set, w, Some(&note)))
+        }
+    }
+}
+
+fn decode_like(dec: &Decoder, reference: &Path, output: &Path) -> Result<()> {
+    write_atomic(output, |w| {
+        let mut out = csv::WriterBuilder::new().flexible(true).from_writer(w);
+        let mut wrote_header = false;
+        let mut values = Vec::new();
+        let fail = |e: csv::Error| Error::Parameter(format!("{}: {e}", output.display()));
+        csv_input::scan(reference, |h, row, raw| {
+            if !wrote_header {
+                out.write_record(&h.names).map_err(fail)?;
+                wrote_header = true;
+            }
+            let inc = (row.angles[0], row.angles[1]);
+            let outg = (row.angles[2], row.angles[3]);
+            let mut fields: Vec<String> = raw.iter().map(|s| s.to_string()).collect();
+            match &h.layout {
+                Layout::Long { value, .. } => {
+                    let mut v = [0.0];
+                    dec.eval_deg(inc, outg, &[row.wavelength.unwrap()], &mut v);
+                    fields[*value] = v[0].to_string();
+                }
+                Layout::Wide { columns } => {
+                    let wl: Vec<f64> = columns.iter().map(|c| c.1).collect();
+                    values.resize(wl.len(), 0.0);
+                    dec.eval_deg(inc, outg, &wl, &mut values);
+                    for (j, (c, _)) in columns.iter().enumerate() {
+                        fields[*c] = values[j].to_string();
+                    }
+                }
+            }
+            out.write_record(&fields).map_err(fail)
+        })?;
+        out.flush().map_err(|e| Error::Io {
+            path: Some(output.to_path_buf()),
+            source: e,
+        })
+    })
+}
+
+fn cmd_eval(a: EvalArgs) -> Result<()> {
+    let dec = Decoder::open(&a.input)?;
+    let inc = parse_pair("incident", &a.incident)?;
+    let outg = parse_pair("outgoing", &a.outgoing)?;
+    if !(0.0..=90.0).contains(&inc.0) {
+        return Err(Error::Parameter(format!(
+            "--incident θ = {} is outside [0, 90] degrees",
+            inc.0
+        )));
+    }
+    if outg.0 < 0.0 || outg.0 > 180.0 {
+        return Err(Error::Parameter(format!(
+            "--outgoing θ = {} is outside [0, 180] degrees",
+            outg.0
+        )));
+    }
+    let m = dec.material();
+    let wl: Vec<f64> = match a.wavelengths {
+        Some(w) => w,
+        None => m.wavelengths.iter().map(|&w| w as f64).collect(),
+    };
+    let (lo, hi) = (m.spectral.lambda_min, m.spectral.lambda_max);
+    if let Some(l) = wl
+        .iter()
+        .find(|l| !(l.is_finite() && **l >= lo && **l <= hi))
+    {
+        return Err(Error::Parameter(format!(
+            "--wavelengths {l} is outside the file's range {lo}–{hi} nm"
+        )));
+    }
+    let mut out = vec![0.0; wl.len()];
+    dec.eval_deg(inc, outg, &wl, &mut out);
+    println!("wavelength_nm,value");
+    for (l, v) in wl.iter().zip(&out) {
+        println!("{l},{v}");
+    }
+    Ok(())
+}
+
+fn cmd_info(a: InfoArgs) -> Result<()> {
+    let len = std::fs::metadata(&a.input)
+        .map_err(|e| Error::Io {
+            path: Some(a.input.clone()),
+            source: e,
+        })?
+        .len();
+    let dec = Decoder::open(&a.input)?;
+    let m = dec.material();
+    let meta: serde_json::Value = m
+        .metadata
+        .as_deref()
+        .map(|t| serde_json::from_str(t).unwrap_or_else(|_| serde_json::Value::from(t)))
+        .unwrap_or(serde_json::Value::Null);
+    if a.json {
+        let records: Vec<_> = m
+            .records
+            .iter()
+            .map(|r| {
+                serde_json::json!({
+                    "theta_i": r.theta_i, "phi_i": r.phi_i,
+                    "theta_p": r.theta_p, "phi_p": r.phi_p,
+                    "critical_angle": r.critical_angle,
+                    "lobes": r.lobes.iter().map(|l| l.kind.name()).collect::<Vec<_>>(),
+                    "rel_error": r.rel_error,
+                })
+            })
+            .collect();
+        let v = serde_json::json!({
+            "file": a.input.display().to_string(),
+            "bytes": len,
+            "format_version": format!("{}.{}", sbrdf::format::VERSION_MAJOR, m.version_minor),
+            "spectral_basis": m.spectral.basis.name(),
+            "terms": m.spectral.terms,
+            "lambda_min": m.spectral.lambda_min,
+            "lambda_max": m.spectral.lambda_max,
+            "wavelengths": m.wavelengths,
+            "sh_level": m.sh_level,
+            "precision": m.precision.name(),
+            "isotropic": m.isotropic,
+            "incident_count": m.records.len(),
+            "sample_positions": m.sample_positions.is_some(),
+            "records": records,
+            "metadata": meta,
+        });
+        println!("{}", serde_json::to_string_pretty(&v).unwrap());
+        return Ok(());
+    }
+    println!("file:           {} ({len} bytes)", a.input.display());
+    println!(
+        "format:         sbrdf {}.{}",
+        sbrdf::format::VERSION_MAJOR,
+        m.version_minor
+    );
+    println!(
+        "spectral basis: {}, {} terms over [{}, {}] nm",
+        m.spectral.basis.name(),
+        m.spectral.terms,
+        m.spectral.lambda_min,
+        m.spectral.lambda_max
+    );
+    println!(
+        "wavelengths:    {} samples, {}–{} nm",
+        m.wavelengths.len(),
+        m.wavelengths[0],
+        m.wavelengths.last().unwrap()
+    );
+    println!(
+        "SH level:       {} ({} coefficients per term)",
+        m.sh_level,
+        m.sh_count()
+    );
+    println!("precision:      {}", m.precision.name());
+    println!(
+        "incidences:     {}{}",
+        m.records.len(),
+        if m.isotropic {
+            " (isotropic: φi = 0 only)"
+        } else {
+            ""
+        }
+    );
+    println!("records:        θi      φi      θp      φp      critical  lobes  rel_error");
+    for r in &m.records {
+        println!(
+            "                {:<7} {:<7} {:<7.3} {:<7.3} {:<9.2} {:<6} {:.5}",
+            r.theta_i,
+            r.phi_i,
+            r.theta_p,
+            r.phi_p,
+            r.critical_angle,
+            r.lobes.len(),
+            r.rel_error
+        );
+    }
+    if !meta.is_null() {
+        println!("metadata:       {meta}");
+    }
+    Ok(())
+}
+
+fn cmd_verify(a: VerifyArgs) -> Result<()> {
+    let dec = Decoder::open(&a.input)?;
+    let m = dec.material();
+    println!(
+        "ok: {}: sbrdf {}.{}, {} records; every CRC and the structure check out",
+        a.input.display(),
+        sbrdf::format::VERSION_MAJOR,
+        m.version_minor,
+        m.records.len()
+    );
+    Ok(())
+}
+
+fn parse_range(s: &str) -> Result<Vec<f64>> {
+    let bad = || {
+        Error::Parameter(format!(
+            "--wavelengths '{s}': expected MIN:MAX:STEP, like 400:700:10"
+        ))
+    };
+    let parts: Vec<f64> = s
+        .split(':')
+        .map(|p| p.trim().parse::<f64>().map_err(|_| bad()))
+        .collect::<Result<_>>()?;
+    let [lo, hi, step] = parts[..] else {
+        return Err(bad());
+    };
+    if !(lo.is_finite() && hi.is_finite() && step.is_finite() && step > 0.0 && hi >= lo) {
+        return Err(bad());
+    }
+    let n = ((hi - lo) / step + 1e-9).floor() as usize + 1;
+    if n > 100_000 {
+        return Err(bad());
+    }
+    Ok((0..n).map(|i| lo + i as f64 * step).collect())
+}
+
+fn cmd_phong(a: PhongArgs) -> Result<()> {
+    let table = SpectrumTable::colorchecker();
+    let wl = parse_range(&a.wavelengths)?;
+    for (name, v) in [("kd", a.kd), ("ks", a.ks), ("n", a.n)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(Error::Parameter(format!(
+                "--{name} {v} must be a finite number ≥ 0"
+            )));
+        }
+    }
+    for (name, v) in [("theta-step", a.theta_step), ("phi-step", a.phi_step)] {
+        if !(v.is_finite() && v >= 0.01) {
+            return Err(Error::Parameter(format!(
+                "--{name} {v} must be at least 0.01 degrees"
+            )));
+        }
+    }
+    let phong = Phong {
+        diffuse: table.sample(table.find(&a.diffuse)?, &wl)?,
+        specular: table.sample(table.find(&a.specular)?, &wl)?,
+        kd: a.kd,
+        ks: a.ks,
+        n: a.n,
+    };
+    let mut incidences = Vec::new();
+    for s in &a.incident {
+        let (t, p) = parse_pair("incident", s)?;
+        if !(0.0..=90.0).contains(&t) {
+            return Err(Error::Parameter(format!(
+                "--incident θ = {t} is outside [0, 90]"
+            )));
+        }
+        incidences.push((t, sbrdf::angles::wrap_phi(p)));
+    }
+    let dirs = paper_grid(a.theta_step, a.phi_step);
+    let set = sample_material(&wl, &incidences, &dirs, |i, o, w| phong.value(i, o, w));
+    let note = format!(
+        "sbrdf synth phong --diffuse {:?} --specular {:?} --kd {} --ks {} --n {}",
+        a.diffuse, a.specular, a.kd, a.ks, a.n
+    );
+    write_atomic(&a.output, |w| match a.layout {
+        LayoutArg::Wide => csv_input::write_wide(&set, w, Some(&note)),
+        LayoutArg::Long => {
+            writeln!(w, "# {note}").map_err(|e| Error::Io {
+                path: None,
+                source: e,
+            })?;
+            csv_input::write_long(&set, w)
+        }
+    })
+}

@@ -1,0 +1,315 @@
+//! The in-memory form of an `.sbrdf` file: what the format stores, with its invariants.
+//!
+//! Values held here are exactly the values the file represents (f16 values already multiplied by
+//! their record's scale), so writing and reading back is lossless.
+
+use crate::sh::{sh_count, MAX_SH_LEVEL};
+use crate::spectral::SpectralSpace;
+
+/// Most spectral terms a file may use (bounds the decoder's stack buffers).
+pub const MAX_TERMS: usize = 256;
+/// Most lobes one incident record may carry.
+pub const MAX_LOBES: usize = 8;
+/// Most wavelength samples a file may list.
+pub const MAX_WAVELENGTHS: usize = 65_536;
+/// Most incident directions a file may hold.
+pub const MAX_INCIDENCES: usize = 1 << 20;
+
+/// How SH coefficients and lobe amplitudes are stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Precision {
+    F32,
+    /// IEEE binary16 after division by the record's power-of-two scale.
+    F16,
+}
+
+impl Precision {
+    pub fn code(self) -> u8 {
+        match self {
+            Precision::F32 => 1,
+            Precision::F16 => 2,
+        }
+    }
+    pub fn from_code(c: u8) -> Option<Self> {
+        match c {
+            1 => Some(Precision::F32),
+            2 => Some(Precision::F16),
+            _ => None,
+        }
+    }
+    pub fn bytes(self) -> usize {
+        match self {
+            Precision::F32 => 4,
+            Precision::F16 => 2,
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::F16 => "f16",
+        }
+    }
+}
+
+/// The shape of a specular lobe. New shapes are new codes; old files keep their meaning.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum LobeKind {
+    /// The paper's Gaussian in the angle α (radians) between the outgoing direction and the
+    /// record's peak direction: term k adds p_k·exp(−α²/b_k).
+    AngleGaussian,
+}
+
+impl LobeKind {
+    pub fn code(self) -> u8 {
+        match self {
+            LobeKind::AngleGaussian => 1,
+        }
+    }
+    pub fn from_code(c: u8) -> Option<Self> {
+        match c {
+            1 => Some(LobeKind::AngleGaussian),
+            _ => None,
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            LobeKind::AngleGaussian => "angle-gaussian",
+        }
+    }
+}
+
+/// One lobe: per spectral term an amplitude (1/sr, same units as the coefficients) and a width.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lobe {
+    pub kind: LobeKind,
+    /// p_k, one per spectral term.
+    pub amplitude: Vec<f32>,
+    /// b_k in rad², one per spectral term, finite and > 0.
+    pub width: Vec<f32>,
+}
+
+/// Everything stored for one incident direction.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IncidentRecord {
+    /// Incident direction, degrees.
+    pub theta_i: f32,
+    pub phi_i: f32,
+    /// Peak (mirror-reflection) direction found by the encoder, degrees.
+    pub theta_p: f32,
+    pub phi_p: f32,
+    /// Relative L2 error the encoder measured against its input samples at this incidence.
+    pub rel_error: f32,
+    /// The critical angle used to separate background and peak, degrees; 0 when none was used.
+    pub critical_angle: f32,
+    /// SH coefficients A_{k,j}: `terms` rows of (L+1)² values, row k for spectral term k.
+    pub sh: Vec<f32>,
+    pub lobes: Vec<Lobe>,
+}
+
+/// Outgoing directions the encoder saw, so `decode` can write the reconstruction there.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DirectionSet {
+    /// θ = θ0 + i·Δθ (i < nθ), φ = φ0 + j·Δφ (j < nφ), in θ-major order; degrees.
+    Grid {
+        theta0: f32,
+        dtheta: f32,
+        ntheta: u32,
+        phi0: f32,
+        dphi: f32,
+        nphi: u32,
+    },
+    /// Explicit (θ, φ) pairs, degrees.
+    List(Vec<[f32; 2]>),
+}
+
+impl DirectionSet {
+    pub fn len(&self) -> usize {
+        match self {
+            DirectionSet::Grid { ntheta, nphi, .. } => *ntheta as usize * *nphi as usize,
+            DirectionSet::List(v) => v.len(),
+        }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// The directions in order, degrees, computed in f64 from the stored f32 parameters.
+    pub fn directions(&self) -> Vec<[f64; 2]> {
+        match self {
+            DirectionSet::Grid {
+                theta0,
+                dtheta,
+                ntheta,
+                phi0,
+                dphi,
+                nphi,
+            } => {
+                let mut v = Vec::with_capacity(self.len());
+                for i in 0..*ntheta {
+                    for j in 0..*nphi {
+                        v.push([
+                            *theta0 as f64 + i as f64 * *dtheta as f64,
+                            *phi0 as f64 + j as f64 * *dphi as f64,
+                        ]);
+                    }
+                }
+                v
+            }
+            DirectionSet::List(v) => v.iter().map(|d| [d[0] as f64, d[1] as f64]).collect(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct SamplePositions {
+    pub sets: Vec<DirectionSet>,
+    /// For each incident record, the index of its set.
+    pub set_of_incidence: Vec<u32>,
+}
+
+/// A whole `.sbrdf` file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    pub version_minor: u16,
+    pub spectral: SpectralSpace,
+    pub sh_level: usize,
+    pub precision: Precision,
+    /// True when only φi = 0 was given: other azimuths are answered by rotation.
+    pub isotropic: bool,
+    /// Wavelength samples of the input, nm, strictly increasing.
+    pub wavelengths: Vec<f32>,
+    pub records: Vec<IncidentRecord>,
+    /// JSON text of the `meta` chunk, if any.
+    pub metadata: Option<String>,
+    pub sample_positions: Option<SamplePositions>,
+}
+
+impl Material {
+    pub fn sh_count(&self) -> usize {
+        sh_count(self.sh_level)
+    }
+
+    /// Checks every invariant of the format that does not depend on byte layout. Both the writer
+    /// and the reader call it, so a `Material` that passed it can be written and evaluated.
+    pub fn validate(&self) -> Result<(), String> {
+        self.spectral.validate()?;
+        let k = self.spectral.terms;
+        if k > MAX_TERMS {
+            return Err(format!(
+                "{k} spectral terms exceed the limit of {MAX_TERMS}"
+            ));
+        }
+        if self.sh_level > MAX_SH_LEVEL {
+            return Err(format!(
+                "SH level {} exceeds the limit of {MAX_SH_LEVEL}",
+                self.sh_level
+            ));
+        }
+        if self.wavelengths.is_empty() || self.wavelengths.len() > MAX_WAVELENGTHS {
+            return Err(format!(
+                "{} wavelength samples (1 to {MAX_WAVELENGTHS} allowed)",
+                self.wavelengths.len()
+            ));
+        }
+        for (i, w) in self.wavelengths.iter().enumerate() {
+            if !(w.is_finite() && *w > 0.0) {
+                return Err(format!("wavelength #{i} is {w}, not a positive number"));
+            }
+            if i > 0 && *w <= self.wavelengths[i - 1] {
+                return Err(format!("wavelengths are not strictly increasing at #{i}"));
+            }
+        }
+        if self.records.is_empty() || self.records.len() > MAX_INCIDENCES {
+            return Err(format!(
+                "{} incident directions (1 to {MAX_INCIDENCES} allowed)",
+                self.records.len()
+            ));
+        }
+        let p = self.sh_count();
+        for (i, r) in self.records.iter().enumerate() {
+            let at = |m: String| format!("incident record #{i}: {m}");
+            if !(0.0..=90.0).contains(&r.theta_i) || !(0.0..360.0).contains(&r.phi_i) {
+                return Err(at(format!(
+                    "incident direction ({}, {}) outside θ ∈ [0, 90], φ ∈ [0, 360)",
+                    r.theta_i, r.phi_i
+                )));
+            }
+            if self.isotropic && r.phi_i != 0.0 {
+                return Err(at("isotropic file with φi ≠ 0".into()));
+            }
+            if i > 0 {
+                let q = &self.records[i - 1];
+                if (q.theta_i, q.phi_i) >= (r.theta_i, r.phi_i) {
+                    return Err(at(
+                        "incident directions not in increasing (θ, φ) order".into()
+                    ));
+                }
+            }
+            if !(0.0..=180.0).contains(&r.theta_p) || !(0.0..360.0).contains(&r.phi_p) {
+                return Err(at(format!(
+                    "peak direction ({}, {}) outside θ ∈ [0, 180], φ ∈ [0, 360)",
+                    r.theta_p, r.phi_p
+                )));
+            }
+            if !(r.rel_error.is_finite() && r.rel_error >= 0.0) {
+                return Err(at(format!("error figure {} is not ≥ 0", r.rel_error)));
+            }
+            if !(0.0..=180.0).contains(&r.critical_angle) {
+                return Err(at(format!(
+                    "critical angle {} outside [0, 180]",
+                    r.critical_angle
+                )));
+            }
+            if r.sh.len() != k * p {
+                return Err(at(format!("{} SH values, expected {}", r.sh.len(), k * p)));
+            }
+            if let Some(v) = r.sh.iter().find(|v| !v.is_finite()) {
+                return Err(at(format!("SH coefficient {v} is not finite")));
+            }
+            if r.lobes.len() > MAX_LOBES {
+                return Err(at(format!("{} lobes exceed {MAX_LOBES}", r.lobes.len())));
+            }
+            for lobe in &r.lobes {
+                if lobe.amplitude.len() != k || lobe.width.len() != k {
+                    return Err(at("lobe parameter count differs from the term count".into()));
+                }
+                if let Some(v) = lobe.amplitude.iter().find(|v| !v.is_finite()) {
+                    return Err(at(format!("lobe amplitude {v} is not finite")));
+                }
+                if let Some(v) = lobe.width.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+                    return Err(at(format!("lobe width {v} is not a positive number")));
+                }
+            }
+        }
+        if let Some(sp) = &self.sample_positions {
+            if sp.set_of_incidence.len() != self.records.len() {
+                return Err("sample positions name a different number of incidences".into());
+            }
+            if sp.sets.is_empty() {
+                return Err("sample positions hold no direction set".into());
+            }
+            if let Some(i) = sp
+                .set_of_incidence
+                .iter()
+                .find(|&&i| i as usize >= sp.sets.len())
+            {
+                return Err(format!("sample positions refer to missing set #{i}"));
+            }
+            for s in &sp.sets {
+                let ok = match s {
+                    DirectionSet::Grid {
+                        theta0,
+                        dtheta,
+                        phi0,
+                        dphi,
+                        ..
+                    } => [theta0, dtheta, phi0, dphi].iter().all(|v| v.is_finite()),
+                    DirectionSet::List(v) => v.iter().flatten().all(|x| x.is_finite()),
+                };
+                if !ok {
+                    return Err("a sample position is not finite".into());
+                }
+            }
+        }
+        Ok(())
+    }
+}

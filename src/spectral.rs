@@ -1,0 +1,200 @@
+//! Spectral bases: how a spectrum ρ(λ) at one pair of directions becomes K coefficients and back.
+//!
+//! Normative text: `spec/EVALUATION.md`, section "Spectral basis".
+
+use std::f64::consts::PI;
+
+/// Which family of functions of λ the coefficients multiply. The numeric codes are the ones
+/// stored in the file's `HEAD` chunk and never change meaning.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SpectralBasis {
+    /// The paper's periodic Fourier series over [λmin, λmax] (Eqs. 4–5): coefficients in the
+    /// order a0, a1, b1, a2, b2, …; the basis functions are 1/2, cos(j t), sin(j t) with
+    /// t = 2π(λ − λmin)/(λmax − λmin).
+    PeriodicFourier,
+}
+
+impl SpectralBasis {
+    pub fn code(self) -> u8 {
+        match self {
+            SpectralBasis::PeriodicFourier => 1,
+        }
+    }
+
+    pub fn from_code(code: u8) -> Option<Self> {
+        match code {
+            1 => Some(SpectralBasis::PeriodicFourier),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SpectralBasis::PeriodicFourier => "fourier",
+        }
+    }
+}
+
+/// A spectral basis with its number of terms and the wavelength interval it spans.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpectralSpace {
+    pub basis: SpectralBasis,
+    pub terms: usize,
+    /// Interval of the basis in nm. Equal ends are allowed only with one term (one wavelength).
+    pub lambda_min: f64,
+    pub lambda_max: f64,
+}
+
+impl SpectralSpace {
+    /// Checks the invariants a file or the encoder must satisfy; returns a message otherwise.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.terms == 0 {
+            return Err("the spectral basis needs at least one term".into());
+        }
+        if !(self.lambda_min.is_finite() && self.lambda_max.is_finite()) || self.lambda_min <= 0.0 {
+            return Err(format!(
+                "the spectral interval [{}, {}] nm is not a finite positive interval",
+                self.lambda_min, self.lambda_max
+            ));
+        }
+        if self.lambda_max < self.lambda_min
+            || (self.lambda_max == self.lambda_min && self.terms != 1)
+        {
+            return Err(format!(
+                "the spectral interval [{}, {}] nm is empty but {} terms are used",
+                self.lambda_min, self.lambda_max, self.terms
+            ));
+        }
+        Ok(())
+    }
+
+    /// Writes the K basis functions at wavelength λ (nm) into `out[..terms]`. λ outside the
+    /// interval is clamped to it: a periodic series must not wrap a query at 710 nm to 410 nm.
+    pub fn eval(&self, lambda: f64, out: &mut [f64]) {
+        let out = &mut out[..self.terms];
+        match self.basis {
+            SpectralBasis::PeriodicFourier => {
+                out[0] = 0.5;
+                if self.terms == 1 {
+                    return;
+                }
+                let span = self.lambda_max - self.lambda_min;
+                let l = lambda.clamp(self.lambda_min, self.lambda_max);
+                let t = 2.0 * PI * (l - self.lambda_min) / span;
+                for (i, v) in out.iter_mut().enumerate().skip(1) {
+                    let j = i.div_ceil(2);
+                    *v = if i % 2 == 1 {
+                        (j as f64 * t).cos()
+                    } else {
+                        (j as f64 * t).sin()
+                    };
+                }
+            }
+        }
+    }
+
+    /// The W×K synthesis matrix (row-major): ρ(λ_w) = Σ_k S[w][k] c_k.
+    pub fn synthesis(&self, wavelengths: &[f64]) -> Vec<f64> {
+        let mut m = vec![0.0; wavelengths.len() * self.terms];
+        for (w, &l) in wavelengths.iter().enumerate() {
+            self.eval(l, &mut m[w * self.terms..(w + 1) * self.terms]);
+        }
+        m
+    }
+
+    /// The K×W projection matrix (row-major) of the paper's Eq. (5), the integral taken by the
+    /// trapezoidal rule over the samples: a_k = (2/Δλ) ∫ ρ(λ) cos(k t) dλ, b_k likewise with sin.
+    /// With a single wavelength (Δλ = 0, one term) the coefficient is 2ρ, so that a0/2 = ρ.
+    pub fn projection(&self, wavelengths: &[f64]) -> Vec<f64> {
+        let w_count = wavelengths.len();
+        let k_count = self.terms;
+        let mut m = vec![0.0; k_count * w_count];
+        if w_count == 1 {
+            m[0] = 2.0;
+            return m;
+        }
+        let span = self.lambda_max - self.lambda_min;
+        let mut basis = vec![0.0; k_count];
+        for (w, &l) in wavelengths.iter().enumerate() {
+            let lo = if w == 0 { l } else { wavelengths[w - 1] };
+            let hi = if w + 1 == w_count {
+                l
+            } else {
+                wavelengths[w + 1]
+            };
+            let weight = 0.5 * (hi - lo);
+            self.eval(l, &mut basis);
+            for k in 0..k_count {
+                // a0 integrates ρ·1, not ρ·(1/2): undo the 1/2 of the synthesis function.
+                let f = if k == 0 { 1.0 } else { basis[k] };
+                m[k * w_count + w] = 2.0 / span * weight * f;
+            }
+        }
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn space(terms: usize) -> SpectralSpace {
+        SpectralSpace {
+            basis: SpectralBasis::PeriodicFourier,
+            terms,
+            lambda_min: 400.0,
+            lambda_max: 700.0,
+        }
+    }
+
+    #[test]
+    fn codes_round_trip() {
+        let b = SpectralBasis::PeriodicFourier;
+        assert_eq!(SpectralBasis::from_code(b.code()), Some(b));
+        assert_eq!(SpectralBasis::from_code(0), None);
+    }
+
+    #[test]
+    fn projection_reproduces_low_harmonics_exactly() {
+        // A spectrum that lies in the span of the first 5 functions is recovered exactly by the
+        // trapezoidal projection on a uniform grid (the rule is exact for periodic trig products).
+        let wl: Vec<f64> = (0..31).map(|i| 400.0 + 10.0 * i as f64).collect();
+        let s = space(5);
+        let truth = [0.8, 0.1, -0.05, 0.02, 0.03];
+        let syn = s.synthesis(&wl);
+        let rho: Vec<f64> = (0..wl.len())
+            .map(|w| (0..5).map(|k| syn[w * 5 + k] * truth[k]).sum())
+            .collect();
+        let proj = s.projection(&wl);
+        for k in 0..5 {
+            let c: f64 = (0..wl.len()).map(|w| proj[k * wl.len() + w] * rho[w]).sum();
+            assert!((c - truth[k]).abs() < 1e-12, "k={k}: {c}");
+        }
+    }
+
+    #[test]
+    fn single_wavelength() {
+        let s = SpectralSpace {
+            basis: SpectralBasis::PeriodicFourier,
+            terms: 1,
+            lambda_min: 550.0,
+            lambda_max: 550.0,
+        };
+        assert!(s.validate().is_ok());
+        let p = s.projection(&[550.0]);
+        let mut b = [0.0];
+        s.eval(550.0, &mut b);
+        assert_eq!(p[0] * 0.7 * b[0], 0.7);
+        let bad = SpectralSpace { terms: 3, ..s };
+        assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn queries_outside_the_interval_clamp() {
+        let s = space(5);
+        let (mut a, mut b) = ([0.0; 5], [0.0; 5]);
+        s.eval(750.0, &mut a);
+        s.eval(700.0, &mut b);
+        assert_eq!(a, b);
+    }
+}
