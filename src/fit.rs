@@ -227,12 +227,14 @@ impl FitContext {
                 sh.push(a[(j, kk)] as f32);
             }
         }
+        // At the pole φ means nothing; store 0 so equal peaks give equal bytes.
+        let phi_p = if peak.0 < 1e-9 { 0.0 } else { peak.1 };
         IncidentRecord {
             theta_i: s.theta_i as f32,
             phi_i: s.phi_i as f32,
             theta_p: peak.0 as f32,
             // f32 rounding can carry 359.99999 to 360: keep φ in [0, 360).
-            phi_p: wrap_phi(peak.1 as f32 as f64) as f32 % 360.0,
+            phi_p: wrap_phi(phi_p as f32 as f64) as f32 % 360.0,
             rel_error: 0.0,
             critical_angle: critical_angle as f32,
             sh,

@@ -298,14 +298,14 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
         .max_by(|x, y| x.rel_error.total_cmp(&y.rel_error))
         .unwrap();
     eprintln!(
-        "sbrdf: wrote {}: {} incident directions, {} wavelengths, {} bytes ({:.1}× smaller than \
-         {} bytes of raw float32 samples); relative error {:.4} overall, worst {:.4} at ({}, {})",
+        "sbrdf: wrote {}: {} incident directions, {} wavelengths, {} bytes (raw float32 samples: {} \
+         bytes, ratio {:.1}); relative error {:.4} overall, worst {:.4} at ({}, {})",
         a.output.display(),
         encoded.material.records.len(),
         set.wavelengths.len(),
         bytes.len(),
-        encoded.raw_bytes as f64 / bytes.len() as f64,
         encoded.raw_bytes,
+        encoded.raw_bytes as f64 / bytes.len() as f64,
         encoded.rel_error,
         worst.rel_error,
         worst.theta_i,

@@ -25,8 +25,16 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
             path.display()
         )));
     }
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".sbrdf-partial-")
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".sbrdf-partial-");
+    // tempfile creates files readable by the owner alone; an output is an ordinary file, so ask
+    // for the usual mode (the umask still applies).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut tmp = builder
         .tempfile_in(dir)
         .map_err(|e| Error::io(dir, e))?;
     {
