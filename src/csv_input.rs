@@ -208,6 +208,23 @@ fn csv_error(path: &str, e: csv::Error) -> Error {
     }
 }
 
+/// The line number of the header: the csv crate reports line 1 for the first record even when
+/// comment lines precede it, so count them here.
+fn header_line(path: &Path) -> u64 {
+    use std::io::BufRead;
+    let Ok(f) = std::fs::File::open(path) else {
+        return 1;
+    };
+    let mut line = 1;
+    for l in std::io::BufReader::new(f).lines() {
+        match l {
+            Ok(l) if l.starts_with('#') || l.trim().is_empty() => line += 1,
+            _ => break,
+        }
+    }
+    line
+}
+
 /// Reads a CSV file row by row, validating each, and calls `f` with the header, the parsed row
 /// and the raw record (so `decode --like` can copy the other fields verbatim).
 pub fn scan(
@@ -230,7 +247,7 @@ pub fn scan(
     {
         let line = rec.position().map(|p| p.line()).unwrap_or(0);
         match &header {
-            None => header = Some(parse_header(&name, line, &rec)?),
+            None => header = Some(parse_header(&name, header_line(path), &rec)?),
             Some(h) => {
                 // A blank line inside the data is harmless; csv yields it as one empty field.
                 if rec.len() == 1 && rec[0].trim().is_empty() {

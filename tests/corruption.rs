@@ -1,0 +1,184 @@
+//! Damaged and hostile files: every truncation and every single-bit flip of the golden files is
+//! refused with a message; chunk rules for extension and versions hold.
+
+mod common;
+use sbrdf::{read_material, Error, Limits};
+
+fn golden(name: &str) -> Vec<u8> {
+    std::fs::read(common::samples_dir().join("golden").join(name)).unwrap()
+}
+
+const FILES: [&str; 3] = [
+    "tiny.sbrdf",
+    "phong_3inc_paper.sbrdf",
+    "phong_3inc_direct_f16.sbrdf",
+];
+
+#[test]
+fn every_truncation_is_refused() {
+    for f in FILES {
+        let bytes = golden(f);
+        assert!(read_material(&bytes, &Limits::default()).is_ok());
+        for len in 0..bytes.len() {
+            let e = read_material(&bytes[..len], &Limits::default())
+                .expect_err(&format!("{f} truncated to {len} bytes was accepted"));
+            assert!(!e.to_string().is_empty());
+        }
+    }
+}
+
+#[test]
+fn every_single_bit_flip_is_refused() {
+    for f in FILES {
+        let bytes = golden(f);
+        let mut copy = bytes.clone();
+        for i in 0..bytes.len() {
+            for bit in 0..8 {
+                copy[i] ^= 1 << bit;
+                let r = read_material(&copy, &Limits::default());
+                assert!(
+                    r.is_err(),
+                    "{f}: flipping bit {bit} of byte {i} went unnoticed"
+                );
+                copy[i] ^= 1 << bit;
+            }
+        }
+    }
+}
+
+/// Splits a file into (type, data) chunks after the signature.
+fn chunks(bytes: &[u8]) -> Vec<([u8; 4], Vec<u8>)> {
+    let mut v = Vec::new();
+    let mut pos = 10;
+    while pos < bytes.len() {
+        let len = u32::from_le_bytes(bytes[pos..pos + 4].try_into().unwrap()) as usize;
+        let kind: [u8; 4] = bytes[pos + 4..pos + 8].try_into().unwrap();
+        v.push((kind, bytes[pos + 8..pos + 8 + len].to_vec()));
+        pos += 12 + len;
+    }
+    v
+}
+
+fn assemble(chunks: &[([u8; 4], Vec<u8>)]) -> Vec<u8> {
+    let mut out = sbrdf::format::SIGNATURE.to_vec();
+    for (kind, data) in chunks {
+        out.extend_from_slice(&(data.len() as u32).to_le_bytes());
+        out.extend_from_slice(kind);
+        out.extend_from_slice(data);
+        let mut h = crc32fast::Hasher::new();
+        h.update(kind);
+        h.update(data);
+        out.extend_from_slice(&h.finalize().to_le_bytes());
+    }
+    out
+}
+
+#[test]
+fn unknown_ancillary_chunks_are_skipped_and_critical_ones_refused() {
+    let bytes = golden("phong_3inc_paper.sbrdf");
+    let original = read_material(&bytes, &Limits::default()).unwrap();
+    let mut c = chunks(&bytes);
+    assert_eq!(
+        assemble(&c),
+        bytes,
+        "test helper must rebuild the file exactly"
+    );
+    c.insert(2, (*b"zzzz", b"future ancillary data".to_vec()));
+    let m = read_material(&assemble(&c), &Limits::default()).unwrap();
+    assert_eq!(m, original);
+    c[2].0 = *b"Zzzz";
+    match read_material(&assemble(&c), &Limits::default()) {
+        Err(Error::Unsupported { message, .. }) => {
+            assert!(
+                message.contains("unknown critical chunk 'Zzzz'"),
+                "{message}"
+            )
+        }
+        other => panic!("expected Unsupported, got {other:?}"),
+    }
+}
+
+#[test]
+fn versions() {
+    let bytes = golden("tiny.sbrdf");
+    let mut c = chunks(&bytes);
+    // A newer minor version is read (it may only add ancillary chunks and new enum values).
+    c[0].1[2..4].copy_from_slice(&7u16.to_le_bytes());
+    let m = read_material(&assemble(&c), &Limits::default()).unwrap();
+    assert_eq!(m.version_minor, 7);
+    // A newer major version is refused, saying so.
+    c[0].1[0..2].copy_from_slice(&2u16.to_le_bytes());
+    match read_material(&assemble(&c), &Limits::default()) {
+        Err(Error::Unsupported { message, .. }) => {
+            assert!(message.contains("format version 2.7"), "{message}");
+            assert!(message.contains("upgrade"), "{message}");
+        }
+        other => panic!("expected Unsupported, got {other:?}"),
+    }
+}
+
+#[test]
+fn hostile_counts_and_structure_are_refused_without_allocating() {
+    let bytes = golden("tiny.sbrdf");
+    let c = chunks(&bytes);
+    // HEAD claiming 2³² − 1 wavelengths: refused by the byte count, not by running out of memory.
+    let mut h = c.clone();
+    h[0].1[32..36].copy_from_slice(&u32::MAX.to_le_bytes());
+    let e = read_material(&assemble(&h), &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("need"), "{e}");
+    // A samp chunk claiming a huge list.
+    let samp = c.iter().position(|x| &x.0 == b"samp").unwrap();
+    let mut s = c.clone();
+    s[samp].1 = [
+        1u32.to_le_bytes().to_vec(),
+        vec![1],
+        u32::MAX.to_le_bytes().to_vec(),
+    ]
+    .concat();
+    assert!(read_material(&assemble(&s), &Limits::default()).is_err());
+    // Records out of order, missing, duplicated; chunks after ENDF; HEAD not first.
+    let mut r = c.clone();
+    let recd = r.iter().position(|x| &x.0 == b"RECD").unwrap();
+    r.remove(recd);
+    let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("0 records present"), "{e}");
+    let mut r = c.clone();
+    r.insert(recd, r[recd].clone());
+    assert!(read_material(&assemble(&r), &Limits::default()).is_err());
+    let mut tail = bytes.clone();
+    tail.extend_from_slice(b"garbage");
+    let e = read_material(&tail, &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("after the ENDF"), "{e}");
+    let mut r = c.clone();
+    r.swap(0, 1);
+    let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("first chunk must be HEAD"), "{e}");
+    // A file over the size limit is refused before parsing.
+    let e = read_material(
+        &bytes,
+        &Limits {
+            max_file_bytes: 100,
+        },
+    )
+    .unwrap_err();
+    assert!(matches!(e, Error::LimitsExceeded(_)));
+    // Non-finite and out-of-range values in a record.
+    let mut r = c.clone();
+    r[recd].1[36..40].copy_from_slice(&f32::NAN.to_le_bytes());
+    let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("not finite"), "{e}");
+    let mut r = c.clone();
+    let lobe_width = r[recd].1.len() - 4;
+    r[recd].1[lobe_width..].copy_from_slice(&0f32.to_le_bytes());
+    let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("lobe width"), "{e}");
+}
+
+#[test]
+fn text_mode_damage_is_named() {
+    let mut bytes = golden("tiny.sbrdf");
+    // A CRLF → LF translation removes the 0x0D of the signature.
+    bytes.remove(6);
+    let e = read_material(&bytes, &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("text-mode"), "{e}");
+}
