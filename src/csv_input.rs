@@ -210,16 +210,13 @@ fn csv_error(path: &str, e: csv::Error) -> Error {
 
 /// The line number of the header: the csv crate reports line 1 for the first record even when
 /// comment lines precede it, so count them here.
-fn header_line(path: &Path) -> u64 {
-    use std::io::BufRead;
-    let Ok(f) = std::fs::File::open(path) else {
-        return 1;
-    };
+fn header_line(bytes: &[u8]) -> u64 {
     let mut line = 1;
-    for l in std::io::BufReader::new(f).lines() {
-        match l {
-            Ok(l) if l.starts_with('#') || l.trim().is_empty() => line += 1,
-            _ => break,
+    for l in bytes.split(|&b| b == b'\n') {
+        if l.first() == Some(&b'#') || l.iter().all(|b| b.is_ascii_whitespace()) {
+            line += 1;
+        } else {
+            break;
         }
     }
     line
@@ -229,31 +226,39 @@ fn header_line(path: &Path) -> u64 {
 /// and the raw record (so `decode --like` can copy the other fields verbatim).
 pub fn scan(
     path: &Path,
+    f: impl FnMut(&Header, Row, &csv::StringRecord) -> Result<()>,
+) -> Result<Header> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    scan_bytes(&path.display().to_string(), &bytes, f)
+}
+
+/// [`scan`] over CSV text in memory; `name` stands for the file in messages.
+pub fn scan_bytes(
+    name: &str,
+    bytes: &[u8],
     mut f: impl FnMut(&Header, Row, &csv::StringRecord) -> Result<()>,
 ) -> Result<Header> {
-    let name = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .comment(Some(b'#'))
         .flexible(false)
-        .from_reader(std::io::BufReader::new(file));
+        .from_reader(bytes);
     let mut header: Option<Header> = None;
     let mut rec = csv::StringRecord::new();
     let mut rows = 0usize;
     while reader
         .read_record(&mut rec)
-        .map_err(|e| csv_error(&name, e))?
+        .map_err(|e| csv_error(name, e))?
     {
         let line = rec.position().map(|p| p.line()).unwrap_or(0);
         match &header {
-            None => header = Some(parse_header(&name, header_line(path), &rec)?),
+            None => header = Some(parse_header(name, header_line(bytes), &rec)?),
             Some(h) => {
                 // A blank line inside the data is harmless; csv yields it as one empty field.
                 if rec.len() == 1 && rec[0].trim().is_empty() {
                     continue;
                 }
-                let row = parse_row(&name, h, line, &rec)?;
+                let row = parse_row(name, h, line, &rec)?;
                 f(h, row, &rec)?;
                 rows += 1;
             }
@@ -262,9 +267,7 @@ pub fn scan(
     let header =
         header.ok_or_else(|| Error::Input(format!("{name}: empty file (no header line)")))?;
     if rows == 0 {
-        return Err(Error::Input(format!(
-            "{name}: no data rows after the header"
-        )));
+        return Err(Error::Input(format!("{name}: no data rows after the header")));
     }
     Ok(header)
 }
@@ -286,13 +289,23 @@ pub struct ReadReport {
 
 /// Reads one or more CSV files (any mix of layouts) into one validated sample set.
 pub fn read_samples(paths: &[impl AsRef<Path>]) -> Result<(SampleSet, ReadReport)> {
-    let names: Vec<String> = paths
-        .iter()
-        .map(|p| p.as_ref().display().to_string())
-        .collect();
+    let mut files = Vec::with_capacity(paths.len());
+    for p in paths {
+        let p = p.as_ref();
+        files.push((
+            p.display().to_string(),
+            std::fs::read(p).map_err(|e| Error::io(p, e))?,
+        ));
+    }
+    read_samples_from_bytes(&files)
+}
+
+/// [`read_samples`] over (name, CSV text) pairs held in memory.
+pub fn read_samples_from_bytes(files: &[(String, Vec<u8>)]) -> Result<(SampleSet, ReadReport)> {
+    let names: Vec<String> = files.iter().map(|f| f.0.clone()).collect();
     let mut samples: Vec<Sample> = Vec::new();
-    for (fi, path) in paths.iter().enumerate() {
-        scan(path.as_ref(), |h, row, _| {
+    for (fi, (name, bytes)) in files.iter().enumerate() {
+        scan_bytes(name, bytes, |h, row, _| {
             let a = row.angles.map(f64::to_bits);
             let mut push = |l: f64, v: f64| {
                 samples.push(Sample {
