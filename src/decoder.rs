@@ -177,8 +177,9 @@ impl Decoder {
     ) {
         let m = &self.material;
         let r = &m.records[index];
-        let k = m.spectral.terms;
-        let p = self.sh.count();
+        // The record's own sizes; its SH functions are the first (L_r+1)² of the file's.
+        let k = r.terms;
+        let p = sh_count(r.sh_level);
         let mut y = [0.0f64; MAX_SH];
         self.sh.eval(wo, &mut y);
         let mut c = [0.0f64; MAX_TERMS];
@@ -198,8 +199,9 @@ impl Decoder {
             }
         }
         let mut b = [0.0f64; MAX_TERMS];
+        let space = &m.spectral;
         for (i, l) in wavelengths.enumerate() {
-            m.spectral.eval(l, &mut b);
+            space.eval(l, &mut b);
             sink(i, c[..k].iter().zip(&b[..k]).map(|(x, y)| x * y).sum());
         }
     }

@@ -2,7 +2,7 @@
 //! sample positions and metadata.
 
 use crate::error::{Error, Result};
-use crate::fit::{rel, CriticalAngle, FitContext, PeakMode};
+use crate::fit::{rel, stored_error, CriticalAngle, FitContext, PeakMode};
 use crate::format::quantize_record_f16;
 use crate::material::{DirectionSet, Material, Precision, SamplePositions, MAX_TERMS};
 use crate::samples::{IncidentSamples, SampleSet};
@@ -129,7 +129,7 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
                 quantize_record_f16(&mut f.record);
                 let (e, r) = ctx.measure(&f.record, s);
                 f.sq_error = e;
-                f.record.rel_error = rel(e, r) as f32;
+                f.record.rel_error = stored_error(rel(e, r));
             }
             Ok(f)
         })
@@ -147,7 +147,6 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         version_minor: crate::format::VERSION_MINOR,
         spectral,
         sh_level: opts.effective_sh_level(),
-        precision: opts.precision,
         isotropic: set.is_isotropic(),
         wavelengths: set.wavelengths.iter().map(|&w| w as f32).collect(),
         records,

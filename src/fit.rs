@@ -157,7 +157,7 @@ impl FitContext {
         };
         let mut record = candidate;
         let (sq_error, sq_reference) = self.measure(&record, s);
-        record.rel_error = rel(sq_error, sq_reference) as f32;
+        record.rel_error = stored_error(rel(sq_error, sq_reference));
         Ok(Fitted {
             record,
             sq_error,
@@ -230,9 +230,12 @@ impl FitContext {
         // At the pole φ means nothing; store 0 so equal peaks give equal bytes.
         let phi_p = if peak.0 < 1e-9 { 0.0 } else { peak.1 };
         IncidentRecord {
+            terms: k,
+            sh_level: self.sh.level(),
+            precision: crate::material::Precision::F32,
             theta_i: s.theta_i as f32,
             phi_i: s.phi_i as f32,
-            theta_p: peak.0 as f32,
+            theta_p: (peak.0 + 0.0) as f32,
             // f32 rounding can carry 359.99999 to 360: keep φ in [0, 360).
             phi_p: wrap_phi(phi_p as f32 as f64) as f32 % 360.0,
             rel_error: 0.0,
@@ -268,11 +271,11 @@ impl FitContext {
         alpha: &[f64],
         rho: &DMatrix<f64>,
     ) -> (f64, f64) {
-        let k = self.spectral.terms;
-        let p = y.ncols();
+        let k = r.terms;
+        let p = crate::sh::sh_count(r.sh_level);
         // A is stored k-major: column-major P×K is exactly that layout.
         let a = DMatrix::from_iterator(p, k, r.sh.iter().map(|v| *v as f64));
-        let mut c = y * a;
+        let mut c = y.columns(0, p) * a;
         for lobe in &r.lobes {
             match lobe.kind {
                 LobeKind::AngleGaussian => {
@@ -285,10 +288,16 @@ impl FitContext {
                 }
             }
         }
-        let approx = c * &self.synthesis;
+        let approx = c * self.synthesis.rows(0, k);
         let err = (approx - rho).norm_squared();
         (err, rho.norm_squared())
     }
+}
+
+/// The error as a record stores it: finite, so +∞ (an all-zero reference not reproduced) is
+/// stored as the largest f32.
+pub fn stored_error(e: f64) -> f32 {
+    (e as f32).min(f32::MAX)
 }
 
 /// sqrt(Σ(ρ̂−ρ)² / Σρ²); 0 for an all-zero reference reproduced exactly, +∞ if not.

@@ -26,8 +26,11 @@ pub const CHUNK_META: [u8; 4] = *b"meta";
 pub const CHUNK_SAMP: [u8; 4] = *b"samp";
 
 const HEAD_FIXED: usize = 40;
-const RECD_FIXED: usize = 36;
+const RECD_FIXED: usize = 40;
 const LOBE_FIXED: usize = 4;
+/// Most outgoing directions one `samp` direction set may describe (a grid is 25 bytes whatever
+/// its size, so its expansion is bounded here rather than by the bytes present).
+pub const MAX_SET_DIRECTIONS: u64 = 1 << 22;
 /// The largest chunk the format allows (as PNG: 2³¹ − 1).
 const MAX_CHUNK: usize = 0x7FFF_FFFF;
 
@@ -50,7 +53,7 @@ impl Default for Limits {
 // ---------------------------------------------------------------------------------------------
 // Writing
 
-/// The power-of-two scale that maps a record's largest magnitude into [2¹⁴, 2¹⁵] for f16
+/// The power-of-two scale that maps a record's largest magnitude into (2¹⁴, 2¹⁵] for f16
 /// storage, keeping values down to ~2⁻²⁹ of the largest in f16's normal range.
 pub fn f16_scale(values: impl Iterator<Item = f32>) -> f32 {
     let max = values.fold(0.0f64, |m, v| m.max((v as f64).abs()));
@@ -76,6 +79,7 @@ pub fn quantize_record_f16(r: &mut IncidentRecord) -> f32 {
     for l in &mut r.lobes {
         l.amplitude.iter_mut().for_each(q);
     }
+    r.precision = Precision::F16;
     scale
 }
 
@@ -102,7 +106,6 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     m.validate()
         .map_err(|e| Error::Parameter(format!("cannot write this material: {e}")))?;
     let k = m.spectral.terms;
-    let p = m.sh_count();
     let mut out = Vec::new();
     out.extend_from_slice(&SIGNATURE);
 
@@ -111,7 +114,7 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     d.extend_from_slice(&VERSION_MINOR.to_le_bytes());
     d.extend_from_slice(&(m.isotropic as u32).to_le_bytes());
     d.push(m.spectral.basis.code());
-    d.push(m.precision.code());
+    d.push(0); // reserved (precision is per record)
     d.push(m.sh_level as u8);
     d.push(ANGLE_CONVENTION);
     d.extend_from_slice(&(k as u16).to_le_bytes());
@@ -171,11 +174,12 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
         push_chunk(&mut out, CHUNK_SAMP, &d);
     }
 
-    let s = m.precision.bytes();
     for (index, r) in m.records.iter().enumerate() {
-        let lobe_bytes = LOBE_FIXED + k * s + 4 * k;
-        let mut d = Vec::with_capacity(RECD_FIXED + k * p * s + r.lobes.len() * lobe_bytes);
-        let scale = match m.precision {
+        let (k, p, s) = (r.terms, sh_count(r.sh_level), r.precision.bytes());
+        let lobe_bytes = k * s + 4 * k;
+        let mut d =
+            Vec::with_capacity(RECD_FIXED + k * p * s + r.lobes.len() * (LOBE_FIXED + lobe_bytes));
+        let scale = match r.precision {
             Precision::F32 => 1.0f32,
             Precision::F16 => record_scale(r),
         };
@@ -192,8 +196,12 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
             d.extend_from_slice(&v.to_le_bytes());
         }
         d.push(r.lobes.len() as u8);
-        d.extend_from_slice(&[0, 0, 0]);
-        let put = |d: &mut Vec<u8>, v: f32| match m.precision {
+        d.push(r.precision.code());
+        d.push(r.sh_level as u8);
+        d.push(0);
+        d.extend_from_slice(&(k as u16).to_le_bytes());
+        d.extend_from_slice(&0u16.to_le_bytes());
+        let put = |d: &mut Vec<u8>, v: f32| match r.precision {
             Precision::F32 => d.extend_from_slice(&v.to_le_bytes()),
             Precision::F16 => d.extend_from_slice(&f16::from_f32(v / scale).to_le_bytes()),
         };
@@ -202,7 +210,8 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
         }
         for lobe in &r.lobes {
             d.push(lobe.kind.code());
-            d.extend_from_slice(&[0, 0, 0]);
+            d.push(0);
+            d.extend_from_slice(&(lobe_bytes as u16).to_le_bytes());
             for &v in &lobe.amplitude {
                 put(&mut d, v);
             }
@@ -308,7 +317,6 @@ impl<'a> Fields<'a> {
 struct Head {
     spectral: SpectralSpace,
     sh_level: usize,
-    precision: Precision,
     isotropic: bool,
     minor: u16,
     wavelengths: Vec<f32>,
@@ -331,9 +339,7 @@ fn read_head(f: &mut Fields) -> Result<Head> {
     let basis_code = f.u8("spectral_basis")?;
     let basis = SpectralBasis::from_code(basis_code)
         .ok_or_else(|| f.unsupported(format!("unknown spectral basis code {basis_code}")))?;
-    let prec_code = f.u8("precision")?;
-    let precision = Precision::from_code(prec_code)
-        .ok_or_else(|| f.unsupported(format!("unknown storage precision code {prec_code}")))?;
+    f.zero(1, "reserved")?;
     let sh_level = f.u8("sh_level")? as usize;
     if sh_level > MAX_SH_LEVEL {
         return Err(f.malformed(format!("SH level {sh_level} exceeds {MAX_SH_LEVEL}")));
@@ -376,7 +382,6 @@ fn read_head(f: &mut Fields) -> Result<Head> {
             lambda_max,
         },
         sh_level,
-        precision,
         isotropic: flags & 1 == 1,
         minor,
         wavelengths,
@@ -404,38 +409,83 @@ fn read_record(f: &mut Fields, h: &Head, expected_index: usize) -> Result<Incide
     let rel_error = f.f32("rel_error")?;
     let critical_angle = f.f32("critical_angle")?;
     let scale = f.f32("scale")?;
-    if !(scale.is_finite() && scale > 0.0) {
-        return Err(f.malformed(format!("record scale {scale} is not a positive number")));
-    }
     let lobe_count = f.u8("lobe_count")? as usize;
     if lobe_count > MAX_LOBES {
         return Err(f.malformed(format!("{lobe_count} lobes exceed {MAX_LOBES}")));
     }
-    f.zero(3, "reserved")?;
-    let k = h.spectral.terms;
-    let p = sh_count(h.sh_level);
-    let s = h.precision.bytes();
-    let need = k * p * s + lobe_count * (LOBE_FIXED + k * s + 4 * k);
-    if need != f.remaining() {
+    let prec_code = f.u8("precision")?;
+    let precision = Precision::from_code(prec_code)
+        .ok_or_else(|| f.unsupported(format!("unknown storage precision code {prec_code}")))?;
+    let sh_level = f.u8("sh_level")? as usize;
+    if sh_level > h.sh_level {
         return Err(f.malformed(format!(
-            "{k} terms × {p} SH coefficients and {lobe_count} lobes need {need} bytes, \
-             the record has {}",
+            "record SH level {sh_level} above the file's {}",
+            h.sh_level
+        )));
+    }
+    f.zero(1, "reserved")?;
+    let k = f.u16("terms")? as usize;
+    if k == 0 || k > h.spectral.terms {
+        return Err(f.malformed(format!(
+            "record uses {k} terms, the file allows 1 to {}",
+            h.spectral.terms
+        )));
+    }
+    f.zero(2, "reserved")?;
+    let scale_ok = match precision {
+        Precision::F32 => scale == 1.0,
+        // A positive normal or subnormal power of two: one bit set in the significand field,
+        // or a zero significand with a non-zero exponent.
+        Precision::F16 => {
+            let b = scale.to_bits();
+            let (exp, man) = ((b >> 23) & 0xff, b & 0x7f_ffff);
+            b >> 31 == 0 && exp != 0xff && ((exp != 0 && man == 0) || (exp == 0 && man.is_power_of_two()))
+        }
+    };
+    if !scale_ok {
+        return Err(f.malformed(format!(
+            "record scale {scale} is not 1 (f32 records) or a positive power of two (f16)"
+        )));
+    }
+    let p = sh_count(sh_level);
+    let s = precision.bytes();
+    // Check the fixed-size part against the bytes present before allocating for it.
+    if k * p * s > f.remaining() {
+        return Err(f.malformed(format!(
+            "{k} terms × {p} SH coefficients need {} bytes, the record has {}",
+            k * p * s,
             f.remaining()
         )));
     }
     let mut sh = Vec::with_capacity(k * p);
     for _ in 0..k * p {
-        sh.push(f.stored(h.precision, scale, "sh")?);
+        sh.push(f.stored(precision, scale, "sh")?);
     }
     let mut lobes = Vec::with_capacity(lobe_count);
     for _ in 0..lobe_count {
         let code = f.u8("lobe_kind")?;
+        f.zero(1, "reserved")?;
+        let len = f.u16("lobe_length")? as usize;
+        if len > f.remaining() {
+            return Err(f.malformed(format!(
+                "lobe claims {len} bytes, the record has {} left",
+                f.remaining()
+            )));
+        }
         let kind = LobeKind::from_code(code)
             .ok_or_else(|| f.unsupported(format!("unknown lobe kind {code}")))?;
-        f.zero(3, "reserved")?;
+        let need = match kind {
+            LobeKind::AngleGaussian => k * s + 4 * k,
+        };
+        if len != need {
+            return Err(f.malformed(format!(
+                "a {} lobe of {k} terms is {need} bytes, not {len}",
+                kind.name()
+            )));
+        }
         let mut amplitude = Vec::with_capacity(k);
         for _ in 0..k {
-            amplitude.push(f.stored(h.precision, scale, "amplitude")?);
+            amplitude.push(f.stored(precision, scale, "amplitude")?);
         }
         let mut width = Vec::with_capacity(k);
         for _ in 0..k {
@@ -449,6 +499,9 @@ fn read_record(f: &mut Fields, h: &Head, expected_index: usize) -> Result<Incide
     }
     f.finish()?;
     Ok(IncidentRecord {
+        terms: k,
+        sh_level,
+        precision,
         theta_i,
         phi_i,
         theta_p,
@@ -460,7 +513,9 @@ fn read_record(f: &mut Fields, h: &Head, expected_index: usize) -> Result<Incide
     })
 }
 
-fn read_samp(f: &mut Fields, n: usize) -> Result<SamplePositions> {
+/// Reads a `samp` chunk; `Ok(None)` when it uses a direction-set kind this reader does not know
+/// (the chunk is ancillary, so it is skipped as a whole).
+fn read_samp(f: &mut Fields, n: usize) -> Result<Option<SamplePositions>> {
     let set_count = f.u32("set_count")? as usize;
     // Each set takes at least 5 bytes, each incidence 4: bound the counts by the bytes present.
     if set_count == 0 || set_count as u64 * 5 + n as u64 * 4 > f.remaining() as u64 {
@@ -480,8 +535,10 @@ fn read_samp(f: &mut Fields, n: usize) -> Result<SamplePositions> {
                 let dphi = f.f32("dphi")?;
                 let nphi = f.u32("nphi")?;
                 // A grid costs 24 bytes but expands: bound its size like any other allocation.
-                if ntheta as u64 * nphi as u64 > (MAX_CHUNK / 8) as u64 {
-                    return Err(f.malformed(format!("grid of {ntheta}×{nphi} directions")));
+                if ntheta as u64 * nphi as u64 > MAX_SET_DIRECTIONS {
+                    return Err(f.malformed(format!(
+                        "grid of {ntheta}×{nphi} directions exceeds {MAX_SET_DIRECTIONS}"
+                    )));
                 }
                 sets.push(DirectionSet::Grid {
                     theta0,
@@ -494,7 +551,7 @@ fn read_samp(f: &mut Fields, n: usize) -> Result<SamplePositions> {
             }
             1 => {
                 let count = f.u32("direction_count")? as usize;
-                if count as u64 * 8 > f.remaining() as u64 {
+                if count as u64 * 8 > f.remaining() as u64 || count as u64 > MAX_SET_DIRECTIONS {
                     return Err(f.malformed(format!(
                         "{count} directions cannot fit in {} bytes",
                         f.remaining()
@@ -506,7 +563,7 @@ fn read_samp(f: &mut Fields, n: usize) -> Result<SamplePositions> {
                 }
                 sets.push(DirectionSet::List(v));
             }
-            other => return Err(f.unsupported(format!("unknown direction set kind {other}"))),
+            _ => return Ok(None),
         }
     }
     let mut set_of_incidence = Vec::with_capacity(n);
@@ -514,10 +571,10 @@ fn read_samp(f: &mut Fields, n: usize) -> Result<SamplePositions> {
         set_of_incidence.push(f.u32("set_index")?);
     }
     f.finish()?;
-    Ok(SamplePositions {
+    Ok(Some(SamplePositions {
         sets,
         set_of_incidence,
-    })
+    }))
 }
 
 fn location(offset: usize, chunk: Option<[u8; 4]>) -> Location {
@@ -557,6 +614,7 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
     let mut records = Vec::new();
     let mut metadata = None;
     let mut samples = None;
+    let mut seen_samp = false;
     loop {
         if pos == bytes.len() {
             return Err(malformed(
@@ -655,10 +713,11 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                 metadata = Some(text.to_string());
             }
             (&CHUNK_SAMP, Some(h)) => {
-                if samples.is_some() {
+                if seen_samp {
                     return Err(malformed(pos, Some(kind), "a second samp chunk".into()));
                 }
                 samples = Some(read_samp(&mut f, h.incidences.len())?);
+                seen_samp = true;
             }
             (&CHUNK_ENDF, Some(h)) => {
                 if len != 0 {
@@ -704,12 +763,11 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
         version_minor: h.minor,
         spectral: h.spectral,
         sh_level: h.sh_level,
-        precision: h.precision,
         isotropic: h.isotropic,
         wavelengths: h.wavelengths,
         records,
         metadata,
-        sample_positions: samples,
+        sample_positions: samples.flatten(),
     };
     m.validate()
         .map_err(|message| malformed(SIGNATURE.len(), None, message))?;

@@ -327,6 +327,18 @@ fn cmd_decode(a: DecodeArgs) -> Result<()> {
                     a.input.display()
                 ))
             })?;
+            let total: u64 = sp
+                .set_of_incidence
+                .iter()
+                .map(|&i| sp.sets[i as usize].len() as u64)
+                .sum();
+            if total > 1 << 26 {
+                return Err(Error::LimitsExceeded(format!(
+                    "{} lists {total} sample positions, more than this command writes; \
+                     give --like REF to choose the positions",
+                    a.input.display()
+                )));
+            }
             let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
             let mut set = SampleSet {
                 wavelengths: wl.clone(),
@@ -457,6 +469,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             .iter()
             .map(|r| {
                 serde_json::json!({
+                    "terms": r.terms, "sh_level": r.sh_level, "precision": r.precision.name(),
                     "theta_i": r.theta_i, "phi_i": r.phi_i,
                     "theta_p": r.theta_p, "phi_p": r.phi_p,
                     "critical_angle": r.critical_angle,
@@ -475,7 +488,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             "lambda_max": m.spectral.lambda_max,
             "wavelengths": m.wavelengths,
             "sh_level": m.sh_level,
-            "precision": m.precision.name(),
+            "precision": m.precision_name(),
             "isotropic": m.isotropic,
             "incident_count": m.records.len(),
             "sample_positions": m.sample_positions.is_some(),
@@ -509,7 +522,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         m.sh_level,
         m.sh_count()
     );
-    println!("precision:      {}", m.precision.name());
+    println!("precision:      {}", m.precision_name());
     println!(
         "incidences:     {}{}",
         m.records.len(),

@@ -88,9 +88,18 @@ pub struct Lobe {
     pub width: Vec<f32>,
 }
 
-/// Everything stored for one incident direction.
+/// Everything stored for one incident direction. Each record carries its own model size (terms,
+/// SH level, precision) within the file's maxima, so an encoder can spend fewer bytes where an
+/// incidence needs less.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IncidentRecord {
+    /// Spectral terms used by this record, 1..=the file's `terms`: the first `terms` basis
+    /// functions (missing higher terms are zero).
+    pub terms: usize,
+    /// SH level of this record, 0..=the file's `sh_level`.
+    pub sh_level: usize,
+    /// Storage precision of this record's SH coefficients and lobe amplitudes.
+    pub precision: Precision,
     /// Incident direction, degrees.
     pub theta_i: f32,
     pub phi_i: f32,
@@ -101,7 +110,7 @@ pub struct IncidentRecord {
     pub rel_error: f32,
     /// The critical angle used to separate background and peak, degrees; 0 when none was used.
     pub critical_angle: f32,
-    /// SH coefficients A_{k,j}: `terms` rows of (L+1)² values, row k for spectral term k.
+    /// SH coefficients A_{k,j}: `terms` rows of (sh_level+1)² values, row k for spectral term k.
     pub sh: Vec<f32>,
     pub lobes: Vec<Lobe>,
 }
@@ -171,8 +180,8 @@ pub struct SamplePositions {
 pub struct Material {
     pub version_minor: u16,
     pub spectral: SpectralSpace,
+    /// The highest SH level any record may use.
     pub sh_level: usize,
-    pub precision: Precision,
     /// True when only φi = 0 was given: other azimuths are answered by rotation.
     pub isotropic: bool,
     /// Wavelength samples of the input, nm, strictly increasing.
@@ -186,6 +195,16 @@ pub struct Material {
 impl Material {
     pub fn sh_count(&self) -> usize {
         sh_count(self.sh_level)
+    }
+
+    /// "f32", "f16", or "mixed" when records differ.
+    pub fn precision_name(&self) -> &'static str {
+        let first = self.records.first().map(|r| r.precision);
+        if self.records.iter().all(|r| Some(r.precision) == first) {
+            first.map(|p| p.name()).unwrap_or("none")
+        } else {
+            "mixed"
+        }
     }
 
     /// Checks every invariant of the format that does not depend on byte layout. Both the writer
@@ -224,9 +243,22 @@ impl Material {
                 self.records.len()
             ));
         }
-        let p = self.sh_count();
         for (i, r) in self.records.iter().enumerate() {
             let at = |m: String| format!("incident record #{i}: {m}");
+            if r.terms == 0 || r.terms > k {
+                return Err(at(format!("{} terms, the file allows 1 to {k}", r.terms)));
+            }
+            if r.sh_level > self.sh_level {
+                return Err(at(format!(
+                    "SH level {} above the file's {}",
+                    r.sh_level, self.sh_level
+                )));
+            }
+            let angles = [r.theta_i, r.phi_i, r.theta_p, r.phi_p, r.critical_angle];
+            if angles.iter().any(|a| *a == 0.0 && a.is_sign_negative()) {
+                return Err(at("an angle is −0 (write +0)".into()));
+            }
+            let (k, p) = (r.terms, sh_count(r.sh_level));
             if !(0.0..=90.0).contains(&r.theta_i) || !(0.0..360.0).contains(&r.phi_i) {
                 return Err(at(format!(
                     "incident direction ({}, {}) outside θ ∈ [0, 90], φ ∈ [0, 360)",

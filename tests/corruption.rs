@@ -164,7 +164,7 @@ fn hostile_counts_and_structure_are_refused_without_allocating() {
     assert!(matches!(e, Error::LimitsExceeded(_)));
     // Non-finite and out-of-range values in a record.
     let mut r = c.clone();
-    r[recd].1[36..40].copy_from_slice(&f32::NAN.to_le_bytes());
+    r[recd].1[40..44].copy_from_slice(&f32::NAN.to_le_bytes());
     let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
     assert!(e.to_string().contains("not finite"), "{e}");
     let mut r = c.clone();
