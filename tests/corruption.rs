@@ -182,3 +182,43 @@ fn text_mode_damage_is_named() {
     let e = read_material(&bytes, &Limits::default()).unwrap_err();
     assert!(e.to_string().contains("text-mode"), "{e}");
 }
+
+#[test]
+fn record_level_rules() {
+    let bytes = golden("tiny.sbrdf");
+    let c = chunks(&bytes);
+    let recd = c.iter().position(|x| &x.0 == b"RECD").unwrap();
+    // An f32 record must have scale 1.
+    let mut r = c.clone();
+    r[recd].1[28..32].copy_from_slice(&3.0f32.to_le_bytes());
+    let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("scale"), "{e}");
+    // A record may not use more terms or a higher SH level than HEAD allows.
+    let mut r = c.clone();
+    r[recd].1[36..38].copy_from_slice(&4u16.to_le_bytes());
+    let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("terms"), "{e}");
+    let mut r = c.clone();
+    r[recd].1[34] = 2;
+    let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
+    assert!(e.to_string().contains("SH level"), "{e}");
+    // An unknown lobe kind is unsupported (a newer file), not malformed.
+    let lobe = 40 + 3 * 4 * 4;
+    let mut r = c.clone();
+    r[recd].1[lobe] = 99;
+    match read_material(&assemble(&r), &Limits::default()) {
+        Err(Error::Unsupported { message, .. }) => assert!(message.contains("lobe kind 99")),
+        other => panic!("expected Unsupported, got {other:?}"),
+    }
+    // An unknown direction-set kind in the ancillary samp chunk: the chunk is skipped.
+    let samp = c.iter().position(|x| &x.0 == b"samp").unwrap();
+    let mut r = c.clone();
+    r[samp].1[4] = 7;
+    let m = read_material(&assemble(&r), &Limits::default()).unwrap();
+    assert!(m.sample_positions.is_none());
+    // -0 is not an angle a writer produces: refused, so one material has one byte form.
+    let mut r = c.clone();
+    r[recd].1[8..12].copy_from_slice(&(-0.0f32).to_le_bytes());
+    r[0].1[40 + 4 * 4 + 4..40 + 4 * 4 + 8].copy_from_slice(&(-0.0f32).to_le_bytes());
+    assert!(read_material(&assemble(&r), &Limits::default()).is_err());
+}
