@@ -267,7 +267,9 @@ pub fn scan_bytes(
     let header =
         header.ok_or_else(|| Error::Input(format!("{name}: empty file (no header line)")))?;
     if rows == 0 {
-        return Err(Error::Input(format!("{name}: no data rows after the header")));
+        return Err(Error::Input(format!(
+            "{name}: no data rows after the header"
+        )));
     }
     Ok(header)
 }

@@ -59,10 +59,11 @@ impl FitContext {
         peak: PeakMode,
         critical_angle: CriticalAngle,
     ) -> Self {
-        let (k, w) = (spectral.terms, wavelengths.len());
-        let projection = DMatrix::from_row_slice(k, w, &spectral.projection(wavelengths));
+        let w = wavelengths.len();
+        let projection = spectral_projection(&spectral, wavelengths);
         // synthesis() is W×K row-major, i.e. K×W column-major.
-        let synthesis = DMatrix::from_column_slice(k, w, &spectral.synthesis(wavelengths));
+        let synthesis =
+            DMatrix::from_column_slice(spectral.terms, w, &spectral.synthesis(wavelengths));
         FitContext {
             sh: ShBasis::new(sh_level),
             spectral,
@@ -298,6 +299,22 @@ impl FitContext {
 /// stored as the largest f32.
 pub fn stored_error(e: f64) -> f32 {
     (e as f32).min(f32::MAX)
+}
+
+/// The K×W matrix taking a sampled spectrum to its coefficients: the paper's trapezoidal Eq. (5)
+/// for its Fourier basis, least squares (the pseudo-inverse of the W×K synthesis matrix, by SVD)
+/// for every other basis.
+pub fn spectral_projection(space: &SpectralSpace, wavelengths: &[f64]) -> DMatrix<f64> {
+    let (k, w) = (space.terms, wavelengths.len());
+    match space.basis {
+        crate::spectral::SpectralBasis::PeriodicFourier => {
+            DMatrix::from_row_slice(k, w, &space.fourier_projection(wavelengths))
+        }
+        _ => {
+            let s = DMatrix::from_row_slice(w, k, &space.synthesis(wavelengths));
+            lstsq(&s, &DMatrix::identity(w, w))
+        }
+    }
 }
 
 /// sqrt(Σ(ρ̂−ρ)² / Σρ²); 0 for an all-zero reference reproduced exactly, +∞ if not.

@@ -22,6 +22,7 @@ pub const ANGLE_CONVENTION: u8 = 1;
 pub const CHUNK_HEAD: [u8; 4] = *b"HEAD";
 pub const CHUNK_RECD: [u8; 4] = *b"RECD";
 pub const CHUNK_ENDF: [u8; 4] = *b"ENDF";
+pub const CHUNK_SBAS: [u8; 4] = *b"SBAS";
 pub const CHUNK_META: [u8; 4] = *b"meta";
 pub const CHUNK_SAMP: [u8; 4] = *b"samp";
 
@@ -132,6 +133,13 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     }
     push_chunk(&mut out, CHUNK_HEAD, &d);
 
+    if let Some(table) = &m.spectral.table {
+        let mut d = Vec::with_capacity(4 * table.values.len());
+        for v in &table.values {
+            d.extend_from_slice(&(*v as f32).to_le_bytes());
+        }
+        push_chunk(&mut out, CHUNK_SBAS, &d);
+    }
     if let Some(meta) = &m.metadata {
         push_chunk(&mut out, CHUNK_META, meta.as_bytes());
     }
@@ -375,12 +383,7 @@ fn read_head(f: &mut Fields) -> Result<Head> {
     }
     f.finish()?;
     Ok(Head {
-        spectral: SpectralSpace {
-            basis,
-            terms,
-            lambda_min,
-            lambda_max,
-        },
+        spectral: SpectralSpace::analytic(basis, terms, lambda_min, lambda_max),
         sh_level,
         isotropic: flags & 1 == 1,
         minor,
@@ -439,7 +442,9 @@ fn read_record(f: &mut Fields, h: &Head, expected_index: usize) -> Result<Incide
         Precision::F16 => {
             let b = scale.to_bits();
             let (exp, man) = ((b >> 23) & 0xff, b & 0x7f_ffff);
-            b >> 31 == 0 && exp != 0xff && ((exp != 0 && man == 0) || (exp == 0 && man.is_power_of_two()))
+            b >> 31 == 0
+                && exp != 0xff
+                && ((exp != 0 && man == 0) || (exp == 0 && man.is_power_of_two()))
         }
     };
     if !scale_ok {
@@ -615,6 +620,7 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
     let mut metadata = None;
     let mut samples = None;
     let mut seen_samp = false;
+    let mut table = None;
     loop {
         if pos == bytes.len() {
             return Err(malformed(
@@ -686,7 +692,50 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
             (&CHUNK_HEAD, Some(_)) => {
                 return Err(malformed(pos, Some(kind), "a second HEAD chunk".into()))
             }
+            (&CHUNK_SBAS, Some(h)) => {
+                if h.spectral.basis != SpectralBasis::Tabulated {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "an SBAS chunk in a file whose basis is not tabulated".into(),
+                    ));
+                }
+                if table.is_some() || !records.is_empty() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "SBAS must appear once, before the records".into(),
+                    ));
+                }
+                let need = 4 * h.spectral.terms as u64 * h.wavelengths.len() as u64;
+                if need != len as u64 {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        format!(
+                            "{} terms × {} wavelengths need {need} bytes, the chunk has {len}",
+                            h.spectral.terms,
+                            h.wavelengths.len()
+                        ),
+                    ));
+                }
+                let mut values = Vec::with_capacity(len / 4);
+                for _ in 0..len / 4 {
+                    values.push(f.f32("basis_value")? as f64);
+                }
+                table = Some(crate::spectral::BasisTable {
+                    nodes: h.wavelengths.iter().map(|&w| w as f64).collect(),
+                    values,
+                });
+            }
             (&CHUNK_RECD, Some(h)) => {
+                if h.spectral.basis == SpectralBasis::Tabulated && table.is_none() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "a tabulated basis needs its SBAS chunk before the records".into(),
+                    ));
+                }
                 if records.len() == h.incidences.len() {
                     return Err(malformed(
                         pos,
@@ -761,7 +810,10 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
     let h = head.expect("loop exits only after HEAD");
     let m = Material {
         version_minor: h.minor,
-        spectral: h.spectral,
+        spectral: SpectralSpace {
+            table,
+            ..h.spectral
+        },
         sh_level: h.sh_level,
         isotropic: h.isotropic,
         wavelengths: h.wavelengths,

@@ -237,6 +237,19 @@ impl Material {
                 return Err(format!("wavelengths are not strictly increasing at #{i}"));
             }
         }
+        if let Some(t) = &self.spectral.table {
+            if t.nodes.len() != self.wavelengths.len()
+                || t.nodes
+                    .iter()
+                    .zip(&self.wavelengths)
+                    .any(|(n, w)| *n != *w as f64)
+            {
+                return Err("the basis table's nodes are not the file's wavelengths".into());
+            }
+            if t.values.iter().any(|v| (*v as f32) as f64 != *v) {
+                return Err("basis table values must be f32 numbers".into());
+            }
+        }
         if self.records.is_empty() || self.records.len() > MAX_INCIDENCES {
             return Err(format!(
                 "{} incident directions (1 to {MAX_INCIDENCES} allowed)",

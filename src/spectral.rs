@@ -12,18 +12,29 @@ pub enum SpectralBasis {
     /// order a0, a1, b1, a2, b2, …; the basis functions are 1/2, cos(j t), sin(j t) with
     /// t = 2π(λ − λmin)/(λmax − λmin).
     PeriodicFourier,
+    /// The cosine series (the Fourier series of the mirror-extended spectrum, i.e. a DCT):
+    /// 1, cos(π t), cos(2π t), … with t = (λ − λmin)/(λmax − λmin). No wrap-around, so no ringing
+    /// where the spectrum's ends differ.
+    Cosine,
+    /// A basis derived from the data (the leading right singular vectors of the samples), stored
+    /// in the file as its values at the wavelength samples and interpolated linearly between them.
+    Tabulated,
 }
 
 impl SpectralBasis {
     pub fn code(self) -> u8 {
         match self {
             SpectralBasis::PeriodicFourier => 1,
+            SpectralBasis::Cosine => 2,
+            SpectralBasis::Tabulated => 3,
         }
     }
 
     pub fn from_code(code: u8) -> Option<Self> {
         match code {
             1 => Some(SpectralBasis::PeriodicFourier),
+            2 => Some(SpectralBasis::Cosine),
+            3 => Some(SpectralBasis::Tabulated),
             _ => None,
         }
     }
@@ -31,8 +42,19 @@ impl SpectralBasis {
     pub fn name(self) -> &'static str {
         match self {
             SpectralBasis::PeriodicFourier => "fourier",
+            SpectralBasis::Cosine => "cosine",
+            SpectralBasis::Tabulated => "data",
         }
     }
+}
+
+/// Basis functions given by their values at wavelength nodes (for [`SpectralBasis::Tabulated`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BasisTable {
+    /// Strictly increasing wavelengths, nm (the file's wavelength samples).
+    pub nodes: Vec<f64>,
+    /// `terms` rows of `nodes.len()` values: row k is basis function k.
+    pub values: Vec<f64>,
 }
 
 /// A spectral basis with its number of terms and the wavelength interval it spans.
@@ -43,9 +65,22 @@ pub struct SpectralSpace {
     /// Interval of the basis in nm. Equal ends are allowed only with one term (one wavelength).
     pub lambda_min: f64,
     pub lambda_max: f64,
+    /// The tabulated functions, present exactly when `basis` is `Tabulated`.
+    pub table: Option<BasisTable>,
 }
 
 impl SpectralSpace {
+    /// A basis given by formula (no table).
+    pub fn analytic(basis: SpectralBasis, terms: usize, lambda_min: f64, lambda_max: f64) -> Self {
+        SpectralSpace {
+            basis,
+            terms,
+            lambda_min,
+            lambda_max,
+            table: None,
+        }
+    }
+
     /// Checks the invariants a file or the encoder must satisfy; returns a message otherwise.
     pub fn validate(&self) -> Result<(), String> {
         if self.terms == 0 {
@@ -64,6 +99,26 @@ impl SpectralSpace {
                 "the spectral interval [{}, {}] nm is empty but {} terms are used",
                 self.lambda_min, self.lambda_max, self.terms
             ));
+        }
+        match (&self.table, self.basis) {
+            (None, SpectralBasis::Tabulated) => {
+                return Err("a tabulated basis without its table".into())
+            }
+            (Some(_), SpectralBasis::PeriodicFourier | SpectralBasis::Cosine) => {
+                return Err("a table given for an analytic basis".into())
+            }
+            (Some(t), SpectralBasis::Tabulated) => {
+                if t.nodes.is_empty() || t.values.len() != self.terms * t.nodes.len() {
+                    return Err("the basis table does not have terms × nodes values".into());
+                }
+                if t.values.iter().any(|v| !v.is_finite()) {
+                    return Err("a basis table value is not finite".into());
+                }
+                if t.nodes.windows(2).any(|w| w[1] <= w[0]) {
+                    return Err("basis table nodes are not strictly increasing".into());
+                }
+            }
+            (None, _) => {}
         }
         Ok(())
     }
@@ -90,6 +145,42 @@ impl SpectralSpace {
                     };
                 }
             }
+            SpectralBasis::Cosine => {
+                let span = self.lambda_max - self.lambda_min;
+                let t = if span > 0.0 {
+                    (lambda.clamp(self.lambda_min, self.lambda_max) - self.lambda_min) / span
+                } else {
+                    0.0
+                };
+                for (k, v) in out.iter_mut().enumerate() {
+                    *v = (PI * k as f64 * t).cos();
+                }
+            }
+            SpectralBasis::Tabulated => {
+                let table = self
+                    .table
+                    .as_ref()
+                    .expect("validated: a tabulated basis has a table");
+                let n = &table.nodes;
+                let w = n.len();
+                // Linear interpolation between nodes, constant beyond the ends.
+                let (i, f) = if lambda <= n[0] || w == 1 {
+                    (0, 0.0)
+                } else if lambda >= n[w - 1] {
+                    (w - 2, 1.0)
+                } else {
+                    let i = n.partition_point(|&x| x <= lambda) - 1;
+                    (i, (lambda - n[i]) / (n[i + 1] - n[i]))
+                };
+                for (k, v) in out.iter_mut().enumerate() {
+                    let row = &table.values[k * w..(k + 1) * w];
+                    *v = if w == 1 {
+                        row[0]
+                    } else {
+                        row[i] + f * (row[i + 1] - row[i])
+                    };
+                }
+            }
         }
     }
 
@@ -105,7 +196,9 @@ impl SpectralSpace {
     /// The K×W projection matrix (row-major) of the paper's Eq. (5), the integral taken by the
     /// trapezoidal rule over the samples: a_k = (2/Δλ) ∫ ρ(λ) cos(k t) dλ, b_k likewise with sin.
     /// With a single wavelength (Δλ = 0, one term) the coefficient is 2ρ, so that a0/2 = ρ.
-    pub fn projection(&self, wavelengths: &[f64]) -> Vec<f64> {
+    /// This is the paper's projection for its Fourier basis; other bases are fitted by least
+    /// squares in the encoder.
+    pub fn fourier_projection(&self, wavelengths: &[f64]) -> Vec<f64> {
         let w_count = wavelengths.len();
         let k_count = self.terms;
         let mut m = vec![0.0; k_count * w_count];
@@ -139,19 +232,52 @@ mod tests {
     use super::*;
 
     fn space(terms: usize) -> SpectralSpace {
-        SpectralSpace {
-            basis: SpectralBasis::PeriodicFourier,
-            terms,
-            lambda_min: 400.0,
-            lambda_max: 700.0,
-        }
+        SpectralSpace::analytic(SpectralBasis::PeriodicFourier, terms, 400.0, 700.0)
     }
 
     #[test]
     fn codes_round_trip() {
-        let b = SpectralBasis::PeriodicFourier;
-        assert_eq!(SpectralBasis::from_code(b.code()), Some(b));
+        for b in [
+            SpectralBasis::PeriodicFourier,
+            SpectralBasis::Cosine,
+            SpectralBasis::Tabulated,
+        ] {
+            assert_eq!(SpectralBasis::from_code(b.code()), Some(b));
+        }
         assert_eq!(SpectralBasis::from_code(0), None);
+    }
+
+    #[test]
+    fn cosine_basis_values() {
+        let s = SpectralSpace::analytic(SpectralBasis::Cosine, 3, 400.0, 700.0);
+        let mut b = [0.0; 3];
+        s.eval(400.0, &mut b);
+        assert_eq!(b, [1.0, 1.0, 1.0]);
+        s.eval(550.0, &mut b);
+        assert!((b[1]).abs() < 1e-15 && (b[2] + 1.0).abs() < 1e-15);
+        s.eval(700.0, &mut b);
+        assert!((b[1] + 1.0).abs() < 1e-15 && (b[2] - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn tabulated_basis_interpolates_linearly_and_clamps() {
+        let s = SpectralSpace {
+            table: Some(BasisTable {
+                nodes: vec![400.0, 500.0, 700.0],
+                values: vec![1.0, 2.0, 4.0, 0.0, -1.0, 1.0],
+            }),
+            ..SpectralSpace::analytic(SpectralBasis::Tabulated, 2, 400.0, 700.0)
+        };
+        assert!(s.validate().is_ok());
+        let mut b = [0.0; 2];
+        s.eval(450.0, &mut b);
+        assert_eq!(b, [1.5, -0.5]);
+        s.eval(600.0, &mut b);
+        assert_eq!(b, [3.0, 0.0]);
+        s.eval(380.0, &mut b);
+        assert_eq!(b, [1.0, 0.0]);
+        s.eval(900.0, &mut b);
+        assert_eq!(b, [4.0, 1.0]);
     }
 
     #[test]
@@ -165,7 +291,7 @@ mod tests {
         let rho: Vec<f64> = (0..wl.len())
             .map(|w| (0..5).map(|k| syn[w * 5 + k] * truth[k]).sum())
             .collect();
-        let proj = s.projection(&wl);
+        let proj = s.fourier_projection(&wl);
         for k in 0..5 {
             let c: f64 = (0..wl.len()).map(|w| proj[k * wl.len() + w] * rho[w]).sum();
             assert!((c - truth[k]).abs() < 1e-12, "k={k}: {c}");
@@ -174,14 +300,9 @@ mod tests {
 
     #[test]
     fn single_wavelength() {
-        let s = SpectralSpace {
-            basis: SpectralBasis::PeriodicFourier,
-            terms: 1,
-            lambda_min: 550.0,
-            lambda_max: 550.0,
-        };
+        let s = SpectralSpace::analytic(SpectralBasis::PeriodicFourier, 1, 550.0, 550.0);
         assert!(s.validate().is_ok());
-        let p = s.projection(&[550.0]);
+        let p = s.fourier_projection(&[550.0]);
         let mut b = [0.0];
         s.eval(550.0, &mut b);
         assert_eq!(p[0] * 0.7 * b[0], 0.7);

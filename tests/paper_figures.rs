@@ -32,13 +32,8 @@ fn fourier_truncation_alone_costs_0_076() {
     // Project every outgoing spectrum on 13 Fourier terms and reconstruct: no angular fit.
     let set = paper_samples(15.0, 15.0, &INCIDENCE);
     let wl = paper_wavelengths();
-    let space = SpectralSpace {
-        basis: SpectralBasis::PeriodicFourier,
-        terms: 13,
-        lambda_min: 400.0,
-        lambda_max: 700.0,
-    };
-    let (proj, syn) = (space.projection(&wl), space.synthesis(&wl));
+    let space = SpectralSpace::analytic(SpectralBasis::PeriodicFourier, 13, 400.0, 700.0);
+    let (proj, syn) = (space.fourier_projection(&wl), space.synthesis(&wl));
     let rho = &set.incidences[0].values;
     let mut approx = Vec::with_capacity(rho.len());
     for spectrum in rho.chunks(wl.len()) {

@@ -19,7 +19,10 @@ fn hexdumps(spec: &str) -> Vec<(String, Vec<u8>)> {
         else {
             continue;
         };
-        assert!(lines.next().unwrap().starts_with("```"), "fence after {line}");
+        assert!(
+            lines.next().unwrap().starts_with("```"),
+            "fence after {line}"
+        );
         let mut bytes = Vec::new();
         for l in lines.by_ref() {
             if l.starts_with("```") {
@@ -27,7 +30,9 @@ fn hexdumps(spec: &str) -> Vec<(String, Vec<u8>)> {
             }
             let data = l.split(';').next().unwrap();
             let mut fields = data.split_whitespace();
-            let Some(offset) = fields.next() else { continue };
+            let Some(offset) = fields.next() else {
+                continue;
+            };
             let offset = usize::from_str_radix(offset, 16).unwrap();
             assert_eq!(offset, bytes.len(), "offset of line '{l}'");
             for h in fields {
@@ -48,7 +53,10 @@ fn format_md_hexdump_is_the_sample_file() {
     for (file, bytes) in dumps {
         let actual = read(&file);
         assert_eq!(bytes.len(), actual.len(), "{file}: length");
-        assert!(bytes == actual, "{file}: the spec's hex dump differs from the file");
+        assert!(
+            bytes == actual,
+            "{file}: the spec's hex dump differs from the file"
+        );
         // And the file is valid: the walk through describes a real file.
         sbrdf::read_material(&actual, &sbrdf::Limits::default()).unwrap();
     }
@@ -67,7 +75,10 @@ fn format_md_names_the_codes_constants() {
         sig.join(" ")
     );
     for chunk in ["HEAD", "RECD", "ENDF", "meta", "samp"] {
-        assert!(spec.contains(&format!("`{chunk}`")), "chunk {chunk} not in spec");
+        assert!(
+            spec.contains(&format!("`{chunk}`")),
+            "chunk {chunk} not in spec"
+        );
     }
     assert!(spec.contains("0xEDB88320") && spec.contains("0xCBF43926"));
 }
