@@ -7,7 +7,7 @@ use crate::format::quantize_record_f16;
 use crate::material::{DirectionSet, Material, Precision, SamplePositions, MAX_TERMS};
 use crate::samples::{IncidentSamples, SampleSet};
 use crate::sh::MAX_SH_LEVEL;
-use crate::spectral::{SpectralBasis, SpectralSpace};
+use crate::spectral::{BasisTable, SpectralBasis, SpectralSpace};
 use rayon::prelude::*;
 
 /// Encoder settings; the CLI's flags map one to one onto these fields.
@@ -50,7 +50,7 @@ impl EncodeOptions {
     pub fn effective_sh_level(&self) -> usize {
         self.sh_level.unwrap_or(match self.peak {
             PeakMode::Paper => 1,
-            PeakMode::None => 4,
+            PeakMode::None | PeakMode::Joint => 4,
         })
     }
 
@@ -102,7 +102,10 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
     set.validate()
         .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
     opts.check(set)?;
-    let spectral = spectral_space(opts.basis, opts.terms, &set.wavelengths);
+    let mut spectral = spectral_space(opts.basis, opts.terms, &set.wavelengths);
+    if opts.basis == SpectralBasis::Tabulated {
+        spectral.table = Some(derive_basis(set, opts.terms));
+    }
     spectral.validate().map_err(Error::Parameter)?;
     let ctx = FitContext::new(
         spectral.clone(),
@@ -144,9 +147,13 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         wavelengths: set.wavelengths.iter().map(|&w| w as f32).collect(),
         records,
         metadata: Some(metadata),
-        sample_positions: opts
-            .sample_positions
-            .then(|| sample_positions(&set.incidences)),
+        // Positions beyond the format's per-set limit are not stored (decode then needs --like).
+        sample_positions: (opts.sample_positions
+            && set
+                .incidences
+                .iter()
+                .all(|s| s.directions.len() as u64 <= crate::material::MAX_SET_DIRECTIONS))
+        .then(|| sample_positions(&set.incidences)),
     };
     material
         .validate()
@@ -156,6 +163,54 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         rel_error,
         raw_bytes: set.raw_f32_bytes(),
     })
+}
+
+/// A spectral basis derived from the data: the leading `rank` right singular vectors of all
+/// spectra stacked (each incidence scaled to unit norm, so every incidence weighs the same in
+/// the relative error), each made positive at its largest entry (a deterministic sign) and
+/// rounded to f32 as the file stores it.
+pub fn derive_basis(set: &SampleSet, rank: usize) -> BasisTable {
+    let w = set.wavelengths.len();
+    let rows: usize = set.incidences.iter().map(|s| s.directions.len()).sum();
+    let mut m = nalgebra::DMatrix::zeros(rows, w);
+    let mut r0 = 0;
+    for s in &set.incidences {
+        let norm = s.values.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let scale = if norm > 0.0 { 1.0 / norm } else { 0.0 };
+        for d in 0..s.directions.len() {
+            for j in 0..w {
+                m[(r0 + d, j)] = s.values[d * w + j] * scale;
+            }
+        }
+        r0 += s.directions.len();
+    }
+    let svd = m.svd(false, true);
+    let v_t = svd.v_t.expect("V requested");
+    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+    order.sort_by(|&a, &b| {
+        svd.singular_values[b]
+            .total_cmp(&svd.singular_values[a])
+            .then(a.cmp(&b))
+    });
+    let mut values = Vec::with_capacity(rank * w);
+    for k in 0..rank {
+        // A rank above the data's gives zero singular values; their vectors are still an
+        // orthonormal completion, which keeps the basis independent.
+        let row: Vec<f64> = match order.get(k) {
+            Some(&i) => (0..w).map(|j| v_t[(i, j)]).collect(),
+            None => (0..w).map(|j| if j == k { 1.0 } else { 0.0 }).collect(),
+        };
+        let big = row
+            .iter()
+            .cloned()
+            .fold(0.0f64, |a, v| if v.abs() > a.abs() { v } else { a });
+        let sign = if big < 0.0 { -1.0 } else { 1.0 };
+        values.extend(row.iter().map(|v| (sign * v) as f32 as f64));
+    }
+    BasisTable {
+        nodes: set.wavelengths.iter().map(|&l| l as f32 as f64).collect(),
+        values,
+    }
 }
 
 /// The spectral space of an encode. The cosine series spans the samples plus half a mean sample
@@ -190,7 +245,11 @@ fn metadata_json(opts: &EncodeOptions, rel_error: f64) -> String {
             "basis": opts.basis.name(),
             "terms": opts.terms,
             "sh_level": opts.effective_sh_level(),
-            "peak": match opts.peak { PeakMode::Paper => "paper", PeakMode::None => "none" },
+            "peak": match opts.peak {
+                PeakMode::Paper => "paper",
+                PeakMode::None => "none",
+                PeakMode::Joint => "joint",
+            },
             "critical_angle": critical,
             "precision": opts.precision.name(),
         },

@@ -20,6 +20,9 @@ pub enum PeakMode {
     None,
     /// The paper's hybrid: SH background fitted outside a critical angle, then a Gaussian.
     Paper,
+    /// Background and lobe amplitudes solved together, the lobe width searched on top
+    /// (see [`crate::joint`]).
+    Joint,
 }
 
 /// The angle (degrees) around the peak direction inside which samples are left to the peak.
@@ -39,7 +42,7 @@ pub struct FitContext {
     /// K×W projection matrix (the paper's Eq. 5 by the trapezoidal rule).
     projection: DMatrix<f64>,
     /// K×W: ρ(λ_w) = Σ_k c_k synthesis[k][w].
-    synthesis: DMatrix<f64>,
+    pub(crate) synthesis: DMatrix<f64>,
     w: usize,
 }
 
@@ -78,6 +81,9 @@ impl FitContext {
     /// Fits one incident direction. Values are rounded to f32 (the caller rounds further for
     /// f16 and re-measures with [`FitContext::measure`]).
     pub fn fit(&self, s: &IncidentSamples) -> Result<Fitted, String> {
+        if self.peak == PeakMode::Joint {
+            return crate::joint::fit_joint(self, s);
+        }
         let n = s.directions.len();
         let p = self.sh.count();
         let dirs: Vec<[f64; 3]> = s
@@ -98,6 +104,7 @@ impl FitContext {
         }
         let (mt, mp) = mirror_deg(s.theta_i, s.phi_i);
         let candidate = match self.peak {
+            PeakMode::Joint => unreachable!("handled above"),
             PeakMode::None => {
                 let a = lstsq(&y, &coeffs);
                 self.make_record(s, (mt, mp), 0.0, &a, Vec::new())

@@ -29,9 +29,7 @@ pub const CHUNK_SAMP: [u8; 4] = *b"samp";
 const HEAD_FIXED: usize = 40;
 const RECD_FIXED: usize = 40;
 const LOBE_FIXED: usize = 4;
-/// Most outgoing directions one `samp` direction set may describe (a grid is 25 bytes whatever
-/// its size, so its expansion is bounded here rather than by the bytes present).
-pub const MAX_SET_DIRECTIONS: u64 = 1 << 22;
+
 /// The largest chunk the format allows (as PNG: 2³¹ − 1).
 const MAX_CHUNK: usize = 0x7FFF_FFFF;
 

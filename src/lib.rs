@@ -24,6 +24,8 @@ pub mod encoder;
 #[cfg(feature = "encode")]
 pub mod fit;
 #[cfg(feature = "encode")]
+pub mod joint;
+#[cfg(feature = "encode")]
 pub mod samples;
 
 #[cfg(feature = "cli")]

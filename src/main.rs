@@ -71,6 +71,10 @@ not stored with the nearest stored one (isotropic files: rotated to φi = 0 firs
 enum BasisArg {
     /// The paper's periodic Fourier series (a0, a1, b1, a2, b2, …).
     Fourier,
+    /// Cosine series (DCT): no wrap-around between the ends of the spectrum.
+    Cosine,
+    /// Derived from the data (leading singular vectors, stored in the file); --terms is the rank.
+    Data,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -79,6 +83,8 @@ enum PeakArg {
     Paper,
     /// SH only (the paper's baseline).
     None,
+    /// SH background and lobe amplitudes fitted together, lobe width searched (no critical angle).
+    Joint,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -101,7 +107,7 @@ struct EncodeArgs {
     /// Number of spectral terms K (13 = a0, a1..a6, b1..b6).
     #[arg(long, default_value_t = 13)]
     terms: usize,
-    /// Spherical-harmonic level L [default: 1 with --peak paper, 4 with --peak none].
+    /// Spherical-harmonic level L [default: 1 with --peak paper, 4 otherwise].
     #[arg(long)]
     sh_level: Option<usize>,
     /// How the specular peak is represented.
@@ -248,11 +254,13 @@ fn parse_pair(flag: &str, s: &str) -> Result<(f64, f64)> {
 fn cmd_encode(a: EncodeArgs) -> Result<()> {
     let critical_angle = match a.critical_angle.trim() {
         "auto" => CriticalAngle::Auto,
-        s => CriticalAngle::Fixed(s.parse().map_err(|_| {
-            Error::Parameter(format!(
-                "--critical-angle '{s}': expected degrees (like 37) or 'auto'"
-            ))
-        })?),
+        s => CriticalAngle::Fixed(
+            0.0 + s.parse::<f64>().map_err(|_| {
+                Error::Parameter(format!(
+                    "--critical-angle '{s}': expected degrees (like 37) or 'auto'"
+                ))
+            })?,
+        ),
     };
     let mut provenance = Vec::new();
     for kv in &a.metadata {
@@ -272,12 +280,15 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
     let opts = EncodeOptions {
         basis: match a.basis {
             BasisArg::Fourier => sbrdf::SpectralBasis::PeriodicFourier,
+            BasisArg::Cosine => sbrdf::SpectralBasis::Cosine,
+            BasisArg::Data => sbrdf::SpectralBasis::Tabulated,
         },
         terms: a.terms,
         sh_level: a.sh_level,
         peak: match a.peak {
             PeakArg::Paper => PeakMode::Paper,
             PeakArg::None => PeakMode::None,
+            PeakArg::Joint => PeakMode::Joint,
         },
         critical_angle,
         precision: match a.precision {

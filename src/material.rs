@@ -14,6 +14,9 @@ pub const MAX_LOBES: usize = 8;
 pub const MAX_WAVELENGTHS: usize = 65_536;
 /// Most incident directions a file may hold.
 pub const MAX_INCIDENCES: usize = 1 << 20;
+/// Most outgoing directions one `samp` direction set may describe (a grid is 25 bytes whatever
+/// its size, so its expansion is bounded here rather than by the bytes present).
+pub const MAX_SET_DIRECTIONS: u64 = 1 << 22;
 
 /// How SH coefficients and lobe amplitudes are stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -340,6 +343,12 @@ impl Material {
                 return Err(format!("sample positions refer to missing set #{i}"));
             }
             for s in &sp.sets {
+                if s.len() as u64 > MAX_SET_DIRECTIONS {
+                    return Err(format!(
+                        "a direction set of {} directions exceeds {MAX_SET_DIRECTIONS}",
+                        s.len()
+                    ));
+                }
                 let ok = match s {
                     DirectionSet::Grid {
                         theta0,
