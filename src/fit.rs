@@ -339,7 +339,9 @@ pub fn rel(sq_error: f64, sq_reference: f64) -> f64 {
 pub fn lstsq(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
     let svd = a.clone().svd(true, true);
     let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
-    let tol = smax * (a.nrows().max(a.ncols()) as f64) * f64::EPSILON;
+    // Coefficients are stored in f32 or f16: combinations the samples barely determine must not
+    // get huge cancelling coefficients, so tiny singular values count as zero.
+    let tol = smax * 1e-9;
     svd.solve(b, tol)
         .unwrap_or_else(|_| DMatrix::zeros(a.ncols(), b.ncols()))
 }
