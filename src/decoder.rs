@@ -193,7 +193,16 @@ impl Decoder {
                     let alpha = angle_between(wo, self.peaks[index]);
                     let a2 = alpha * alpha;
                     for (kk, ck) in c[..k].iter_mut().enumerate() {
-                        *ck += lobe.amplitude[kk] as f64 * (-a2 / lobe.width[kk] as f64).exp();
+                        *ck += lobe.amplitude[kk] as f64 * (-a2 / lobe.params[kk] as f64).exp();
+                    }
+                }
+                LobeKind::Microfacet => {
+                    let v =
+                        crate::lobes::microfacet_variants(&lobe.params, self.incidents[index], wo);
+                    for (kk, ck) in c[..k].iter_mut().enumerate() {
+                        for (j, vj) in v.iter().enumerate() {
+                            *ck += lobe.amplitude[j * k + kk] as f64 * vj;
+                        }
                     }
                 }
             }

@@ -117,7 +117,7 @@ impl FitContext {
                     self.fit_hybrid(&y, &coeffs, &alpha, gamma)
                         .map(|(a, lobe)| {
                             let r = self.make_record(s, (tp, pp), gamma, &a, lobe);
-                            let (e, _) = self.measure_parts(&r, &y, &alpha, &rho);
+                            let (e, _) = self.measure_parts(&r, &y, &dirs, &alpha, &rho);
                             (r, e)
                         })
                 };
@@ -212,7 +212,7 @@ impl FitContext {
             vec![Lobe {
                 kind: LobeKind::AngleGaussian,
                 amplitude,
-                width,
+                params: width,
             }]
         } else {
             Vec::new()
@@ -260,6 +260,7 @@ impl FitContext {
         let mut row = vec![0.0; p];
         let peak = dir_from_deg(r.theta_p as f64, r.phi_p as f64);
         let mut alpha = Vec::with_capacity(s.directions.len());
+        let mut dirs = Vec::with_capacity(s.directions.len());
         for (i, d) in s.directions.iter().enumerate() {
             let v = dir_from_deg(d[0], d[1]);
             self.sh.eval(v, &mut row);
@@ -267,15 +268,17 @@ impl FitContext {
                 y[(i, j)] = row[j];
             }
             alpha.push(angle_between(v, peak));
+            dirs.push(v);
         }
         let rho = DMatrix::from_row_slice(s.directions.len(), self.w, &s.values);
-        self.measure_parts(r, &y, &alpha, &rho)
+        self.measure_parts(r, &y, &dirs, &alpha, &rho)
     }
 
     fn measure_parts(
         &self,
         r: &IncidentRecord,
         y: &DMatrix<f64>,
+        dirs: &[[f64; 3]],
         alpha: &[f64],
         rho: &DMatrix<f64>,
     ) -> (f64, f64) {
@@ -290,7 +293,18 @@ impl FitContext {
                     for (i, al) in alpha.iter().enumerate() {
                         for kk in 0..k {
                             c[(i, kk)] += lobe.amplitude[kk] as f64
-                                * (-al * al / lobe.width[kk] as f64).exp();
+                                * (-al * al / lobe.params[kk] as f64).exp();
+                        }
+                    }
+                }
+                LobeKind::Microfacet => {
+                    let wi = dir_from_deg(r.theta_i as f64, r.phi_i as f64);
+                    for (i, d) in dirs.iter().enumerate() {
+                        let v = crate::lobes::microfacet_variants(&lobe.params, wi, *d);
+                        for kk in 0..k {
+                            c[(i, kk)] += (0..4)
+                                .map(|j| lobe.amplitude[j * k + kk] as f64 * v[j])
+                                .sum::<f64>();
                         }
                     }
                 }

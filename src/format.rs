@@ -182,9 +182,8 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
 
     for (index, r) in m.records.iter().enumerate() {
         let (k, p, s) = (r.terms, sh_count(r.sh_level), r.precision.bytes());
-        let lobe_bytes = k * s + 4 * k;
         let mut d =
-            Vec::with_capacity(RECD_FIXED + k * p * s + r.lobes.len() * (LOBE_FIXED + lobe_bytes));
+            Vec::with_capacity(RECD_FIXED + k * p * s + r.lobes.len() * (LOBE_FIXED + 16 * k));
         let scale = match r.precision {
             Precision::F32 => 1.0f32,
             Precision::F16 => record_scale(r),
@@ -215,13 +214,14 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
             put(&mut d, v);
         }
         for lobe in &r.lobes {
+            let lobe_bytes = lobe.amplitude.len() * s + 4 * lobe.params.len();
             d.push(lobe.kind.code());
             d.push(0);
             d.extend_from_slice(&(lobe_bytes as u16).to_le_bytes());
             for &v in &lobe.amplitude {
                 put(&mut d, v);
             }
-            for &v in &lobe.width {
+            for &v in &lobe.params {
                 d.extend_from_slice(&v.to_le_bytes());
             }
         }
@@ -477,27 +477,26 @@ fn read_record(f: &mut Fields, h: &Head, expected_index: usize) -> Result<Incide
         }
         let kind = LobeKind::from_code(code)
             .ok_or_else(|| f.unsupported(format!("unknown lobe kind {code}")))?;
-        let need = match kind {
-            LobeKind::AngleGaussian => k * s + 4 * k,
-        };
+        let (na, np) = (kind.amplitude_count(k), kind.param_count(k));
+        let need = na * s + 4 * np;
         if len != need {
             return Err(f.malformed(format!(
                 "a {} lobe of {k} terms is {need} bytes, not {len}",
                 kind.name()
             )));
         }
-        let mut amplitude = Vec::with_capacity(k);
-        for _ in 0..k {
+        let mut amplitude = Vec::with_capacity(na);
+        for _ in 0..na {
             amplitude.push(f.stored(precision, scale, "amplitude")?);
         }
-        let mut width = Vec::with_capacity(k);
-        for _ in 0..k {
-            width.push(f.f32("width")?);
+        let mut params = Vec::with_capacity(np);
+        for _ in 0..np {
+            params.push(f.f32("lobe_parameter")?);
         }
         lobes.push(Lobe {
             kind,
             amplitude,
-            width,
+            params,
         });
     }
     f.finish()?;

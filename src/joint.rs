@@ -151,7 +151,7 @@ pub fn fit_joint(ctx: &FitContext, s: &IncidentSamples) -> Result<Fitted, String
         vec![Lobe {
             kind: LobeKind::AngleGaussian,
             amplitude: (0..k).map(|kk| x[(p, kk)] as f32).collect(),
-            width: vec![width as f32; k],
+            params: vec![width as f32; k],
         }]
     } else {
         Vec::new()

@@ -15,6 +15,7 @@ pub mod angles;
 pub mod decoder;
 pub mod error;
 pub mod format;
+pub mod lobes;
 pub mod material;
 pub mod sh;
 pub mod spectral;

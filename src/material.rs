@@ -58,37 +58,82 @@ impl Precision {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum LobeKind {
     /// The paper's Gaussian in the angle α (radians) between the outgoing direction and the
-    /// record's peak direction: term k adds p_k·exp(−α²/b_k).
+    /// record's peak direction: term k adds p_k·exp(−α²/b_k). Amplitudes: p_k (one per term);
+    /// parameters: b_k in rad² (one per term).
     AngleGaussian,
+    /// A microfacet-shaped lobe in the half vector h = normalize(ωi + ωo):
+    /// D = (1 + b·(1 − cos θh))^(−c) times four shadowing/Fresnel variants, each with its own
+    /// amplitude per term: D·Vs, D·Vs·F, D·Vc, D·Vc·F, where Vs is a Smith-like grazing factor
+    /// with parameter a, Vc the V-cavity factor and F = (1 − ωi·h)⁵ (Schlick's). Amplitudes:
+    /// 4 × terms (variant-major); parameters: b, c, a. Exact formulas: `spec/EVALUATION.md`.
+    Microfacet,
 }
 
 impl LobeKind {
     pub fn code(self) -> u8 {
         match self {
             LobeKind::AngleGaussian => 1,
+            LobeKind::Microfacet => 2,
         }
     }
     pub fn from_code(c: u8) -> Option<Self> {
         match c {
             1 => Some(LobeKind::AngleGaussian),
+            2 => Some(LobeKind::Microfacet),
             _ => None,
         }
     }
     pub fn name(self) -> &'static str {
         match self {
             LobeKind::AngleGaussian => "angle-gaussian",
+            LobeKind::Microfacet => "microfacet",
         }
+    }
+    /// Number of stored amplitudes for a record of `terms` spectral terms.
+    pub fn amplitude_count(self, terms: usize) -> usize {
+        match self {
+            LobeKind::AngleGaussian => terms,
+            LobeKind::Microfacet => 4 * terms,
+        }
+    }
+    /// Number of f32 shape parameters.
+    pub fn param_count(self, terms: usize) -> usize {
+        match self {
+            LobeKind::AngleGaussian => terms,
+            LobeKind::Microfacet => 3,
+        }
+    }
+    /// Checks the shape parameters; the message says which is wrong.
+    pub fn check_params(self, params: &[f32]) -> Result<(), String> {
+        match self {
+            LobeKind::AngleGaussian => {
+                if let Some(v) = params.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+                    return Err(format!("lobe width {v} is not a positive number"));
+                }
+            }
+            LobeKind::Microfacet => {
+                let (b, c, a) = (params[0], params[1], params[2]);
+                if !(b.is_finite() && b > 0.0 && c.is_finite() && c > 0.0) {
+                    return Err(format!(
+                        "microfacet lobe b = {b}, c = {c}: both must be > 0"
+                    ));
+                }
+                if !(a.is_finite() && (0.0..=1.0).contains(&a)) {
+                    return Err(format!("microfacet lobe a = {a} is outside [0, 1]"));
+                }
+            }
+        }
+        Ok(())
     }
 }
 
-/// One lobe: per spectral term an amplitude (1/sr, same units as the coefficients) and a width.
+/// One lobe: amplitudes (1/sr, same units as the coefficients) and shape parameters, laid out
+/// as its kind defines ([`LobeKind::amplitude_count`], [`LobeKind::param_count`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Lobe {
     pub kind: LobeKind,
-    /// p_k, one per spectral term.
     pub amplitude: Vec<f32>,
-    /// b_k in rad², one per spectral term, finite and > 0.
-    pub width: Vec<f32>,
+    pub params: Vec<f32>,
 }
 
 /// Everything stored for one incident direction. Each record carries its own model size (terms,
@@ -317,15 +362,20 @@ impl Material {
                 return Err(at(format!("{} lobes exceed {MAX_LOBES}", r.lobes.len())));
             }
             for lobe in &r.lobes {
-                if lobe.amplitude.len() != k || lobe.width.len() != k {
-                    return Err(at("lobe parameter count differs from the term count".into()));
+                if lobe.amplitude.len() != lobe.kind.amplitude_count(k)
+                    || lobe.params.len() != lobe.kind.param_count(k)
+                {
+                    return Err(at(format!(
+                        "a {} lobe needs {} amplitudes and {} parameters for {k} terms",
+                        lobe.kind.name(),
+                        lobe.kind.amplitude_count(k),
+                        lobe.kind.param_count(k)
+                    )));
                 }
                 if let Some(v) = lobe.amplitude.iter().find(|v| !v.is_finite()) {
                     return Err(at(format!("lobe amplitude {v} is not finite")));
                 }
-                if let Some(v) = lobe.width.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
-                    return Err(at(format!("lobe width {v} is not a positive number")));
-                }
+                lobe.kind.check_params(&lobe.params).map_err(at)?;
             }
         }
         if let Some(sp) = &self.sample_positions {

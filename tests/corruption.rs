@@ -168,8 +168,8 @@ fn hostile_counts_and_structure_are_refused_without_allocating() {
     let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
     assert!(e.to_string().contains("not finite"), "{e}");
     let mut r = c.clone();
-    let lobe_width = r[recd].1.len() - 4;
-    r[recd].1[lobe_width..].copy_from_slice(&0f32.to_le_bytes());
+    let last_param = r[recd].1.len() - 4;
+    r[recd].1[last_param..].copy_from_slice(&0f32.to_le_bytes());
     let e = read_material(&assemble(&r), &Limits::default()).unwrap_err();
     assert!(e.to_string().contains("lobe width"), "{e}");
 }
