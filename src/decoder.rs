@@ -196,9 +196,13 @@ impl Decoder {
                         *ck += lobe.amplitude[kk] as f64 * (-a2 / lobe.params[kk] as f64).exp();
                     }
                 }
-                LobeKind::Microfacet => {
-                    let v =
-                        crate::lobes::microfacet_variants(&lobe.params, self.incidents[index], wo);
+                LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
+                    let v = crate::lobes::microfacet_variants_with(
+                        &lobe.params,
+                        self.incidents[index],
+                        wo,
+                        lobe.kind == LobeKind::MicrofacetSin2,
+                    );
                     for (kk, ck) in c[..k].iter_mut().enumerate() {
                         for (j, vj) in v.iter().enumerate() {
                             *ck += lobe.amplitude[j * k + kk] as f64 * vj;

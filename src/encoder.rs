@@ -4,6 +4,7 @@
 use crate::error::{Error, Result};
 use crate::fit::{rel, stored_error, CriticalAngle, FitContext, PeakMode};
 use crate::format::quantize_record_f16;
+use crate::joint::{JointOptions, LobeFamily};
 use crate::material::{DirectionSet, Material, Precision, SamplePositions, MAX_TERMS};
 use crate::samples::{IncidentSamples, SampleSet};
 use crate::sh::MAX_SH_LEVEL;
@@ -22,6 +23,11 @@ pub struct EncodeOptions {
     pub peak: PeakMode,
     pub critical_angle: CriticalAngle,
     pub precision: Precision,
+    /// Lobe families the joint fit may use (`--lobes`).
+    pub lobes: Vec<LobeFamily>,
+    /// Per-incidence relative error budget (`--max-error`): the joint fit picks the smallest
+    /// model meeting it.
+    pub max_error: Option<f64>,
     /// Store the outgoing directions seen (`samp` chunk) so `decode` can write them back.
     pub sample_positions: bool,
     /// `--metadata KEY=VALUE` pairs, in the order given.
@@ -39,6 +45,12 @@ impl Default for EncodeOptions {
             peak: PeakMode::Paper,
             critical_angle: CriticalAngle::Auto,
             precision: Precision::F32,
+            lobes: vec![
+                LobeFamily::Gaussian,
+                LobeFamily::Microfacet,
+                LobeFamily::MicrofacetSin2,
+            ],
+            max_error: None,
             sample_positions: true,
             provenance: Vec::new(),
             inputs: Vec::new(),
@@ -75,6 +87,19 @@ impl EncodeOptions {
                 "--sh-level {l} is above the maximum {MAX_SH_LEVEL}"
             )));
         }
+        if let Some(e) = self.max_error {
+            if !(e.is_finite() && e > 0.0) {
+                return Err(Error::Parameter(format!(
+                    "--max-error {e} must be a positive fraction (0.01 = 1%)"
+                )));
+            }
+            if self.peak != PeakMode::Joint {
+                return Err(Error::Parameter(
+                    "--max-error needs --peak joint (the paper's method has no size to choose)"
+                        .into(),
+                ));
+            }
+        }
         if let CriticalAngle::Fixed(g) = self.critical_angle {
             if !(g.is_finite() && (0.0..=180.0).contains(&g)) {
                 return Err(Error::Parameter(format!(
@@ -94,6 +119,9 @@ pub struct Encoded {
     pub rel_error: f64,
     /// Size of the input as a raw float32 table.
     pub raw_bytes: usize,
+    /// Indices of the records whose error budget (`max_error`) could not be met; they hold
+    /// the most accurate model tried.
+    pub unmet: Vec<usize>,
 }
 
 /// Fits every incident direction (in parallel; the result does not depend on the thread count,
@@ -107,13 +135,19 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         spectral.table = Some(derive_basis(set, opts.terms));
     }
     spectral.validate().map_err(Error::Parameter)?;
-    let ctx = FitContext::new(
+    let mut ctx = FitContext::new(
         spectral.clone(),
         &set.wavelengths,
         opts.effective_sh_level(),
         opts.peak,
         opts.critical_angle,
     );
+    ctx.joint = JointOptions {
+        max_sh_level: opts.effective_sh_level(),
+        families: opts.lobes.clone(),
+        precision: opts.precision,
+        max_error: opts.max_error,
+    };
     let fitted: Vec<_> = set
         .incidences
         .par_iter()
@@ -121,7 +155,7 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
             let mut f = ctx.fit(s).map_err(|e| {
                 Error::Parameter(format!("incidence ({}, {}): {e}", s.theta_i, s.phi_i))
             })?;
-            if opts.precision == Precision::F16 {
+            if opts.precision == Precision::F16 && opts.peak != PeakMode::Joint {
                 quantize_record_f16(&mut f.record);
                 let (e, r) = ctx.measure(&f.record, s);
                 f.sq_error = e;
@@ -132,9 +166,13 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         .collect::<Result<_>>()?;
     let (mut sq_e, mut sq_r) = (0.0, 0.0);
     let mut records = Vec::with_capacity(fitted.len());
+    let mut unmet = Vec::new();
     for f in fitted {
         sq_e += f.sq_error;
         sq_r += f.sq_reference;
+        if !f.met {
+            unmet.push(records.len());
+        }
         records.push(f.record);
     }
     let rel_error = rel(sq_e, sq_r);
@@ -162,6 +200,7 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         material,
         rel_error,
         raw_bytes: set.raw_f32_bytes(),
+        unmet,
     })
 }
 
@@ -252,6 +291,8 @@ fn metadata_json(opts: &EncodeOptions, rel_error: f64) -> String {
             },
             "critical_angle": critical,
             "precision": opts.precision.name(),
+            "lobes": opts.lobes.iter().map(|l| l.name()).collect::<Vec<_>>(),
+            "max_error": opts.max_error,
         },
         "inputs": opts.inputs,
         "provenance": provenance,

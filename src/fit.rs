@@ -35,6 +35,8 @@ pub enum CriticalAngle {
 
 /// Everything shared by the fits of one file.
 pub struct FitContext {
+    /// Options of the joint fit (used when `peak` is [`PeakMode::Joint`]).
+    pub joint: crate::joint::JointOptions,
     pub spectral: SpectralSpace,
     pub sh: ShBasis,
     pub peak: PeakMode,
@@ -48,6 +50,8 @@ pub struct FitContext {
 
 /// A fitted record with the sums behind its error figure, so that errors can be pooled.
 pub struct Fitted {
+    /// False when an error budget was given and no model met it.
+    pub met: bool,
     pub record: IncidentRecord,
     /// Σ(ρ̂ − ρ)² and Σρ² over this incidence's samples.
     pub sq_error: f64,
@@ -68,6 +72,12 @@ impl FitContext {
         let synthesis =
             DMatrix::from_column_slice(spectral.terms, w, &spectral.synthesis(wavelengths));
         FitContext {
+            joint: crate::joint::JointOptions {
+                max_sh_level: sh_level,
+                families: vec![crate::joint::LobeFamily::Gaussian],
+                precision: crate::material::Precision::F32,
+                max_error: None,
+            },
             sh: ShBasis::new(sh_level),
             spectral,
             peak,
@@ -82,7 +92,9 @@ impl FitContext {
     /// f16 and re-measures with [`FitContext::measure`]).
     pub fn fit(&self, s: &IncidentSamples) -> Result<Fitted, String> {
         if self.peak == PeakMode::Joint {
-            return crate::joint::fit_joint(self, s);
+            let (mut f, met) = crate::joint::fit_joint(self, s, &self.joint)?;
+            f.met = met;
+            return Ok(f);
         }
         let n = s.directions.len();
         let p = self.sh.count();
@@ -167,6 +179,7 @@ impl FitContext {
         let (sq_error, sq_reference) = self.measure(&record, s);
         record.rel_error = stored_error(rel(sq_error, sq_reference));
         Ok(Fitted {
+            met: true,
             record,
             sq_error,
             sq_reference,
@@ -297,10 +310,11 @@ impl FitContext {
                         }
                     }
                 }
-                LobeKind::Microfacet => {
+                LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
                     let wi = dir_from_deg(r.theta_i as f64, r.phi_i as f64);
+                    let sin2 = lobe.kind == LobeKind::MicrofacetSin2;
                     for (i, d) in dirs.iter().enumerate() {
-                        let v = crate::lobes::microfacet_variants(&lobe.params, wi, *d);
+                        let v = crate::lobes::microfacet_variants_with(&lobe.params, wi, *d, sin2);
                         for kk in 0..k {
                             c[(i, kk)] += (0..4)
                                 .map(|j| lobe.amplitude[j * k + kk] as f64 * v[j])

@@ -12,6 +12,17 @@ const MIN_COS: f64 = 1e-6;
 /// Vc = min(1/(ci·co), 2·ch/(cd·ci), 2·ch/(cd·co)) and F = (1 − cd)⁵, where ci = wi·z,
 /// co = wo·z, ch = h·z, cd = wi·h, h = normalize(wi + wo); ci, co, cd are clamped to ≥ 10⁻⁶.
 pub fn microfacet_variants(params: &[f32], wi: [f64; 3], wo: [f64; 3]) -> [f64; 4] {
+    microfacet_variants_with(params, wi, wo, false)
+}
+
+/// [`microfacet_variants`] with D = (1 + b·x)^(−c) for x = sin²θh when `sin2`, else
+/// x = 1 − cos θh.
+pub fn microfacet_variants_with(
+    params: &[f32],
+    wi: [f64; 3],
+    wo: [f64; 3],
+    sin2: bool,
+) -> [f64; 4] {
     let (b, c, a) = (params[0] as f64, params[1] as f64, params[2] as f64);
     let Some(h) = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]) else {
         return [0.0; 4];
@@ -20,7 +31,8 @@ pub fn microfacet_variants(params: &[f32], wi: [f64; 3], wo: [f64; 3]) -> [f64; 
     let cd = dot(wi, h).clamp(MIN_COS, 1.0);
     let ci = wi[2].max(MIN_COS);
     let co = wo[2].max(MIN_COS);
-    let d = (1.0 + b * (1.0 - ch)).powf(-c);
+    let x = if sin2 { 1.0 - ch * ch } else { 1.0 - ch };
+    let d = (1.0 + b * x).powf(-c);
     let a2 = a * a;
     let vs =
         1.0 / (co * (a2 + (1.0 - a2) * ci * ci).sqrt() + ci * (a2 + (1.0 - a2) * co * co).sqrt());

@@ -5,6 +5,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use sbrdf::csv_input::{self, Layout};
 use sbrdf::encoder::{encode, EncodeOptions};
 use sbrdf::fit::{CriticalAngle, PeakMode};
+use sbrdf::joint::LobeFamily;
 use sbrdf::output::{write_atomic, write_bytes_atomic};
 use sbrdf::samples::SampleSet;
 use sbrdf::synth::{paper_grid, sample_material, Phong, SpectrumTable};
@@ -88,6 +89,16 @@ enum PeakArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+enum LobeArg {
+    /// A Gaussian in the angle from the peak direction.
+    Gaussian,
+    /// A microfacet lobe in the half vector (1 − cos θh), with shadowing and Fresnel variants.
+    Microfacet,
+    /// The same in sin²θh (GGX-shaped).
+    MicrofacetSin2,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 enum PrecisionArg {
     F32,
     F16,
@@ -119,6 +130,22 @@ struct EncodeArgs {
     /// Storage precision of coefficients.
     #[arg(long, value_enum, default_value = "f32")]
     precision: PrecisionArg,
+    /// Lobe shapes the joint fit may use, per incidence the better one.
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "gaussian,microfacet,microfacet-sin2"
+    )]
+    lobes: Vec<LobeArg>,
+    /// Relative error budget per incident direction (0.01 = 1%): with --peak joint, the smallest
+    /// model (spectral terms, SH level, lobe, precision) meeting it. Fails if it cannot be met.
+    #[arg(long, value_name = "E")]
+    max_error: Option<String>,
+    /// With --max-error: write the most accurate model where the budget cannot be met, and
+    /// succeed.
+    #[arg(long)]
+    best_effort: bool,
     /// Provenance recorded in the file's metadata (repeatable).
     #[arg(long, value_name = "KEY=VALUE")]
     metadata: Vec<String>,
@@ -172,6 +199,67 @@ enum SynthCommand {
     #[command(after_help = "Example (the paper's setup):\n  \
 sbrdf synth phong --diffuse green --specular white --kd 1 --ks 15 --n 15 --incident 15,0 -o phong.csv")]
     Phong(PhongArgs),
+    /// A GGX microfacet material: kd·Sd(λ)/π + D·G2·F/(4 cos θi cos θo), height-correlated
+    /// Smith G2, Schlick Fresnel with F0(λ) = 0.04 + 0.5·(the --fresnel patch).
+    #[command(after_help = "Example:\n  \
+sbrdf synth ggx --alpha 0.1 --diffuse blue --fresnel yellow --incident 0,0 --incident 45,0 -o ggx.csv")]
+    Ggx(GgxArgs),
+    /// A MERL material from Löw et al.'s ABC fits, made spectral with a ColorChecker diffuse
+    /// colour and a dispersive dielectric Fresnel (see the library's `synth::Abc`).
+    #[command(after_help = "Example:\n  \
+sbrdf synth abc --material pearl-paint --diffuse orange --incident 30,0 -o pearl.csv")]
+    Abc(AbcArgs),
+}
+
+#[derive(Args)]
+struct GgxArgs {
+    /// GGX roughness α.
+    #[arg(long)]
+    alpha: f64,
+    /// Diffuse ColorChecker patch.
+    #[arg(long)]
+    diffuse: String,
+    /// ColorChecker patch shaping F0(λ) = 0.04 + 0.5·patch.
+    #[arg(long)]
+    fresnel: String,
+    #[arg(long, default_value_t = 1.0)]
+    kd: f64,
+    #[command(flatten)]
+    grid: GridArgs,
+}
+
+#[derive(Args)]
+struct AbcArgs {
+    /// MERL material name (e.g. pearl-paint, gray-plastic, chrome).
+    #[arg(long)]
+    material: String,
+    /// Diffuse ColorChecker patch, scaled to the fit's diffuse luminance.
+    #[arg(long)]
+    diffuse: String,
+    #[command(flatten)]
+    grid: GridArgs,
+}
+
+/// Where a synthetic material is sampled and how it is written.
+#[derive(Args)]
+struct GridArgs {
+    /// Incident direction θ,φ in degrees (repeatable).
+    #[arg(long, required = true, value_name = "θ,φ", allow_hyphen_values = true)]
+    incident: Vec<String>,
+    /// Output CSV file.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Wavelengths MIN:MAX:STEP in nm (within 380–780).
+    #[arg(long, default_value = "400:700:10")]
+    wavelengths: String,
+    /// Outgoing θ spacing: θo = step/2, 3·step/2, … below 90.
+    #[arg(long, default_value_t = 5.0)]
+    theta_step: f64,
+    /// Outgoing φ spacing: φo = 0, step, … below 360.
+    #[arg(long, default_value_t = 5.0)]
+    phi_step: f64,
+    #[arg(long, value_enum, default_value = "wide")]
+    layout: LayoutArg,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -195,23 +283,8 @@ struct PhongArgs {
     /// Phong exponent.
     #[arg(long)]
     n: f64,
-    /// Incident direction θ,φ in degrees (repeatable).
-    #[arg(long, required = true, value_name = "θ,φ", allow_hyphen_values = true)]
-    incident: Vec<String>,
-    /// Output CSV file.
-    #[arg(short, long)]
-    output: PathBuf,
-    /// Wavelengths MIN:MAX:STEP in nm (within 380–780).
-    #[arg(long, default_value = "400:700:10")]
-    wavelengths: String,
-    /// Outgoing θ spacing: θo = step/2, 3·step/2, … below 90.
-    #[arg(long, default_value_t = 5.0)]
-    theta_step: f64,
-    /// Outgoing φ spacing: φo = 0, step, … below 360.
-    #[arg(long, default_value_t = 5.0)]
-    phi_step: f64,
-    #[arg(long, value_enum, default_value = "wide")]
-    layout: LayoutArg,
+    #[command(flatten)]
+    grid: GridArgs,
 }
 
 fn main() -> ExitCode {
@@ -233,6 +306,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Info(a) => cmd_info(a),
         Command::Verify(a) => cmd_verify(a),
         Command::Synth(SynthCommand::Phong(a)) => cmd_phong(a),
+        Command::Synth(SynthCommand::Ggx(a)) => cmd_ggx(a),
+        Command::Synth(SynthCommand::Abc(a)) => cmd_abc(a),
     }
 }
 
@@ -249,6 +324,24 @@ fn parse_pair(flag: &str, s: &str) -> Result<(f64, f64)> {
         return Err(bad());
     }
     Ok((t, p))
+}
+
+/// A fraction like `0.01` or a percentage like `1%`.
+fn parse_fraction(s: &str) -> Result<f64> {
+    let bad = || {
+        Error::Parameter(format!(
+            "--max-error '{s}': expected a fraction like 0.01 or 1%"
+        ))
+    };
+    let t = s.trim();
+    let v = match t.strip_suffix('%') {
+        Some(p) => p.trim().parse::<f64>().map_err(|_| bad())? / 100.0,
+        None => t.parse::<f64>().map_err(|_| bad())?,
+    };
+    if !(v.is_finite() && v > 0.0) {
+        return Err(bad());
+    }
+    Ok(v)
 }
 
 fn cmd_encode(a: EncodeArgs) -> Result<()> {
@@ -295,11 +388,44 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
             PrecisionArg::F32 => Precision::F32,
             PrecisionArg::F16 => Precision::F16,
         },
+        lobes: a
+            .lobes
+            .iter()
+            .map(|l| match l {
+                LobeArg::Gaussian => LobeFamily::Gaussian,
+                LobeArg::Microfacet => LobeFamily::Microfacet,
+                LobeArg::MicrofacetSin2 => LobeFamily::MicrofacetSin2,
+            })
+            .collect(),
+        max_error: a.max_error.as_deref().map(parse_fraction).transpose()?,
         sample_positions: !a.no_sample_positions,
         provenance,
         inputs: a.inputs.iter().map(|p| p.display().to_string()).collect(),
     };
     let encoded = encode(&set, &opts)?;
+    if !encoded.unmet.is_empty() {
+        let m = &encoded.material;
+        let list: Vec<String> = encoded
+            .unmet
+            .iter()
+            .map(|&i| {
+                let r = &m.records[i];
+                format!("({}, {}): {:.4}", r.theta_i, r.phi_i, r.rel_error)
+            })
+            .collect();
+        let msg = format!(
+            "--max-error {} cannot be met at {} incident direction(s); best errors reached: {}",
+            opts.max_error.unwrap(),
+            list.len(),
+            list.join(", ")
+        );
+        if !a.best_effort {
+            return Err(Error::Parameter(format!(
+                "{msg}. Nothing written; raise the budget or add --best-effort"
+            )));
+        }
+        eprintln!("sbrdf: warning: {msg} (written anyway: --best-effort)");
+    }
     let bytes = sbrdf::write_material(&encoded.material)?;
     write_bytes_atomic(&a.output, &bytes)?;
     let worst = encoded
@@ -598,32 +724,33 @@ fn parse_range(s: &str) -> Result<Vec<f64>> {
     Ok((0..n).map(|i| lo + i as f64 * step).collect())
 }
 
-fn cmd_phong(a: PhongArgs) -> Result<()> {
-    let table = SpectrumTable::colorchecker();
-    let wl = parse_range(&a.wavelengths)?;
-    for (name, v) in [("kd", a.kd), ("ks", a.ks), ("n", a.n)] {
-        if !(v.is_finite() && v >= 0.0) {
+fn check_nonnegative(values: &[(&str, f64)]) -> Result<()> {
+    for (name, v) in values {
+        if !(v.is_finite() && *v >= 0.0) {
             return Err(Error::Parameter(format!(
                 "--{name} {v} must be a finite number ≥ 0"
             )));
         }
     }
-    for (name, v) in [("theta-step", a.theta_step), ("phi-step", a.phi_step)] {
+    Ok(())
+}
+
+/// Samples `f` on the grid the arguments describe and writes it; `note` heads the file.
+fn write_synth(
+    g: &GridArgs,
+    note: &str,
+    f: impl Fn((f64, f64), (f64, f64), usize) -> f64,
+) -> Result<()> {
+    let wl = parse_range(&g.wavelengths)?;
+    for (name, v) in [("theta-step", g.theta_step), ("phi-step", g.phi_step)] {
         if !(v.is_finite() && v >= 0.01) {
             return Err(Error::Parameter(format!(
                 "--{name} {v} must be at least 0.01 degrees"
             )));
         }
     }
-    let phong = Phong {
-        diffuse: table.sample(table.find(&a.diffuse)?, &wl)?,
-        specular: table.sample(table.find(&a.specular)?, &wl)?,
-        kd: a.kd,
-        ks: a.ks,
-        n: a.n,
-    };
     let mut incidences = Vec::new();
-    for s in &a.incident {
+    for s in &g.incident {
         let (t, p) = parse_pair("incident", s)?;
         if !(0.0..=90.0).contains(&t) {
             return Err(Error::Parameter(format!(
@@ -632,14 +759,10 @@ fn cmd_phong(a: PhongArgs) -> Result<()> {
         }
         incidences.push((t, sbrdf::angles::wrap_phi(p)));
     }
-    let dirs = paper_grid(a.theta_step, a.phi_step);
-    let set = sample_material(&wl, &incidences, &dirs, |i, o, w| phong.value(i, o, w));
-    let note = format!(
-        "sbrdf synth phong --diffuse {:?} --specular {:?} --kd {} --ks {} --n {}",
-        a.diffuse, a.specular, a.kd, a.ks, a.n
-    );
-    write_atomic(&a.output, |w| match a.layout {
-        LayoutArg::Wide => csv_input::write_wide(&set, w, Some(&note)),
+    let dirs = paper_grid(g.theta_step, g.phi_step);
+    let set = sample_material(&wl, &incidences, &dirs, f);
+    write_atomic(&g.output, |w| match g.layout {
+        LayoutArg::Wide => csv_input::write_wide(&set, w, Some(note)),
         LayoutArg::Long => {
             writeln!(w, "# {note}").map_err(|e| Error::Io {
                 path: None,
@@ -648,4 +771,59 @@ fn cmd_phong(a: PhongArgs) -> Result<()> {
             csv_input::write_long(&set, w)
         }
     })
+}
+
+fn cmd_phong(a: PhongArgs) -> Result<()> {
+    let table = SpectrumTable::colorchecker();
+    let wl = parse_range(&a.grid.wavelengths)?;
+    check_nonnegative(&[("kd", a.kd), ("ks", a.ks), ("n", a.n)])?;
+    let phong = Phong {
+        diffuse: table.sample(table.find(&a.diffuse)?, &wl)?,
+        specular: table.sample(table.find(&a.specular)?, &wl)?,
+        kd: a.kd,
+        ks: a.ks,
+        n: a.n,
+    };
+    let note = format!(
+        "sbrdf synth phong --diffuse {:?} --specular {:?} --kd {} --ks {} --n {}",
+        a.diffuse, a.specular, a.kd, a.ks, a.n
+    );
+    write_synth(&a.grid, &note, |i, o, w| phong.value(i, o, w))
+}
+
+fn cmd_ggx(a: GgxArgs) -> Result<()> {
+    let table = SpectrumTable::colorchecker();
+    let wl = parse_range(&a.grid.wavelengths)?;
+    check_nonnegative(&[("kd", a.kd), ("alpha", a.alpha)])?;
+    if a.alpha < 1e-3 || a.alpha > 1.0 {
+        return Err(Error::Parameter(format!(
+            "--alpha {} is outside [0.001, 1]",
+            a.alpha
+        )));
+    }
+    let ggx = sbrdf::synth::Ggx {
+        alpha: a.alpha,
+        kd: a.kd,
+        diffuse: table.sample(table.find(&a.diffuse)?, &wl)?,
+        f0: table
+            .sample(table.find(&a.fresnel)?, &wl)?
+            .iter()
+            .map(|v| 0.04 + 0.5 * v)
+            .collect(),
+    };
+    let note = format!(
+        "sbrdf synth ggx --alpha {} --diffuse {:?} --fresnel {:?} --kd {}",
+        a.alpha, a.diffuse, a.fresnel, a.kd
+    );
+    write_synth(&a.grid, &note, |i, o, w| ggx.value(i, o, w))
+}
+
+fn cmd_abc(a: AbcArgs) -> Result<()> {
+    let wl = parse_range(&a.grid.wavelengths)?;
+    let abc = sbrdf::synth::Abc::from_table(&a.material, &a.diffuse, &wl)?;
+    let note = format!(
+        "sbrdf synth abc --material {:?} --diffuse {:?}",
+        a.material, a.diffuse
+    );
+    write_synth(&a.grid, &note, |i, o, w| abc.value(i, o, w))
 }

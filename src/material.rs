@@ -67,6 +67,9 @@ pub enum LobeKind {
     /// with parameter a, Vc the V-cavity factor and F = (1 − ωi·h)⁵ (Schlick's). Amplitudes:
     /// 4 × terms (variant-major); parameters: b, c, a. Exact formulas: `spec/EVALUATION.md`.
     Microfacet,
+    /// As [`LobeKind::Microfacet`] with D = (1 + b·sin²θh)^(−c), which holds GGX exactly
+    /// (b = (1 − α²)/α², c = 2).
+    MicrofacetSin2,
 }
 
 impl LobeKind {
@@ -74,12 +77,14 @@ impl LobeKind {
         match self {
             LobeKind::AngleGaussian => 1,
             LobeKind::Microfacet => 2,
+            LobeKind::MicrofacetSin2 => 3,
         }
     }
     pub fn from_code(c: u8) -> Option<Self> {
         match c {
             1 => Some(LobeKind::AngleGaussian),
             2 => Some(LobeKind::Microfacet),
+            3 => Some(LobeKind::MicrofacetSin2),
             _ => None,
         }
     }
@@ -87,20 +92,21 @@ impl LobeKind {
         match self {
             LobeKind::AngleGaussian => "angle-gaussian",
             LobeKind::Microfacet => "microfacet",
+            LobeKind::MicrofacetSin2 => "microfacet-sin2",
         }
     }
     /// Number of stored amplitudes for a record of `terms` spectral terms.
     pub fn amplitude_count(self, terms: usize) -> usize {
         match self {
             LobeKind::AngleGaussian => terms,
-            LobeKind::Microfacet => 4 * terms,
+            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => 4 * terms,
         }
     }
     /// Number of f32 shape parameters.
     pub fn param_count(self, terms: usize) -> usize {
         match self {
             LobeKind::AngleGaussian => terms,
-            LobeKind::Microfacet => 3,
+            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => 3,
         }
     }
     /// Checks the shape parameters; the message says which is wrong.
@@ -111,7 +117,7 @@ impl LobeKind {
                     return Err(format!("lobe width {v} is not a positive number"));
                 }
             }
-            LobeKind::Microfacet => {
+            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
                 let (b, c, a) = (params[0], params[1], params[2]);
                 if !(b.is_finite() && b > 0.0 && c.is_finite() && c > 0.0) {
                     return Err(format!(

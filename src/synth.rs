@@ -168,3 +168,133 @@ pub fn sample_material(
             .collect(),
     }
 }
+
+/// Löw et al.'s ABC-model fits to the 100 MERL materials (RGB), as published in the public-domain
+/// dj_brdf toolkit (see `samples/README.md`).
+pub const MERL_ABC_CSV: &str = include_str!("../samples/merl_abc_low2012_params.csv");
+
+fn half_vector(wi: [f64; 3], wo: [f64; 3]) -> ([f64; 3], f64, f64) {
+    let h = crate::angles::normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]])
+        .unwrap_or([0.0, 0.0, 1.0]);
+    (h, h[2], dot(wi, h))
+}
+
+/// Exact unpolarised Fresnel reflectance of a dielectric of relative index `eta` at cos θd.
+pub fn fresnel_dielectric(eta: f64, cos_d: f64) -> f64 {
+    let c = cos_d.clamp(1e-6, 1.0);
+    let g = (eta * eta - 1.0 + c * c).max(0.0).sqrt();
+    let a = (g - c) / (g + c);
+    let b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    0.5 * a * a * (1.0 + b * b)
+}
+
+/// A GGX microfacet material: Lambert base kd·Sd(λ)/π plus D·G2·F/(4 cos θi cos θo) with the
+/// GGX distribution of roughness α, the height-correlated Smith G2 and Schlick's Fresnel with a
+/// spectral F0(λ).
+#[derive(Debug, Clone)]
+pub struct Ggx {
+    pub alpha: f64,
+    pub kd: f64,
+    pub diffuse: Vec<f64>,
+    pub f0: Vec<f64>,
+}
+
+impl Ggx {
+    /// The specular part alone at one wavelength index.
+    pub fn specular(&self, wi: [f64; 3], wo: [f64; 3], f0: f64) -> f64 {
+        let (ci, co) = (wi[2], wo[2]);
+        if ci <= 0.0 || co <= 0.0 {
+            return 0.0;
+        }
+        let (_, ch, cd) = half_vector(wi, wo);
+        let a2 = self.alpha * self.alpha;
+        let d = a2 / (std::f64::consts::PI * (ch * ch * (a2 - 1.0) + 1.0).powi(2));
+        let lambda = |c: f64| 0.5 * (-1.0 + (1.0 + a2 * (1.0 - c * c) / (c * c)).sqrt());
+        let g2 = 1.0 / (1.0 + lambda(ci) + lambda(co));
+        let f = f0 + (1.0 - f0) * (1.0 - cd).max(0.0).powi(5);
+        d * g2 * f / (4.0 * ci * co)
+    }
+
+    pub fn value(&self, incident: (f64, f64), outgoing: (f64, f64), w: usize) -> f64 {
+        let wi = dir_from_deg(incident.0, incident.1);
+        let wo = dir_from_deg(outgoing.0, outgoing.1);
+        self.kd * self.diffuse[w] / std::f64::consts::PI + self.specular(wi, wo, self.f0[w])
+    }
+}
+
+/// An ABC-model material (Löw et al. 2012) made spectral: f = kD(λ)/π + A(λ)·S·G·F(λ)/(π cos θi
+/// cos θo) with S = (1 + B(1 − cos θh))^(−C), the V-cavity G and the exact dielectric Fresnel of
+/// a mildly dispersive index. Spectra: kD is a ColorChecker patch scaled to the fit's diffuse
+/// luminance, A interpolates the fit's blue, green and red amplitudes at 450, 550 and 610 nm,
+/// and η(λ) = ior·(1 + 0.02·(550 − λ)/150).
+#[derive(Debug, Clone)]
+pub struct Abc {
+    pub name: String,
+    pub kd: Vec<f64>,
+    pub a: Vec<f64>,
+    pub eta: Vec<f64>,
+    pub b: f64,
+    pub c: f64,
+}
+
+impl Abc {
+    /// The fit called `name` in the embedded table, with diffuse patch `patch`.
+    pub fn from_table(name: &str, patch: &str, wavelengths: &[f64]) -> Result<Self> {
+        let mut r = csv::ReaderBuilder::new().from_reader(MERL_ABC_CSV.as_bytes());
+        let headers = r
+            .headers()
+            .map_err(|e| Error::Input(e.to_string()))?
+            .clone();
+        let col = |n: &str| headers.iter().position(|h| h == n).unwrap();
+        for rec in r.records() {
+            let rec = rec.map_err(|e| Error::Input(e.to_string()))?;
+            if &rec[0] != name {
+                continue;
+            }
+            let v = |n: &str| rec[col(n)].parse::<f64>().unwrap();
+            let t = SpectrumTable::colorchecker();
+            let p = t.sample(t.find(patch)?, wavelengths)?;
+            let mean = p.iter().sum::<f64>() / p.len() as f64;
+            let lum = 0.2126 * v("kD_r") + 0.7152 * v("kD_g") + 0.0722 * v("kD_b");
+            let interp = |l: f64| {
+                let (xs, ys) = ([450.0, 550.0, 610.0], [v("A_b"), v("A_g"), v("A_r")]);
+                if l <= xs[0] {
+                    ys[0]
+                } else if l >= xs[2] {
+                    ys[2]
+                } else {
+                    let i = if l < xs[1] { 0 } else { 1 };
+                    ys[i] + (l - xs[i]) / (xs[i + 1] - xs[i]) * (ys[i + 1] - ys[i])
+                }
+            };
+            let ior = v("ior").min(50.0);
+            return Ok(Abc {
+                name: name.to_string(),
+                kd: p.iter().map(|x| lum * x / mean).collect(),
+                a: wavelengths.iter().map(|&l| interp(l)).collect(),
+                eta: wavelengths
+                    .iter()
+                    .map(|&l| ior * (1.0 + 0.02 * (550.0 - l) / 150.0))
+                    .collect(),
+                b: v("B"),
+                c: v("C"),
+            });
+        }
+        Err(Error::Parameter(format!("no ABC fit named '{name}'")))
+    }
+
+    pub fn value(&self, incident: (f64, f64), outgoing: (f64, f64), w: usize) -> f64 {
+        let wi = dir_from_deg(incident.0, incident.1);
+        let wo = dir_from_deg(outgoing.0, outgoing.1);
+        let (ci, co) = (wi[2], wo[2]);
+        let diffuse = self.kd[w] / std::f64::consts::PI;
+        if ci <= 0.0 || co <= 0.0 {
+            return diffuse;
+        }
+        let (_, ch, cd) = half_vector(wi, wo);
+        let s = (1.0 + self.b * (1.0 - ch)).powf(-self.c);
+        let g = 1f64.min(2.0 * ch * co / cd).min(2.0 * ch * ci / cd);
+        let f = fresnel_dielectric(self.eta[w], cd);
+        diffuse + self.a[w] * s * g * f / (std::f64::consts::PI * ci * co)
+    }
+}
