@@ -32,13 +32,13 @@ fn bench_encode(c: &mut Criterion) {
     let mut g = c.benchmark_group("encode_90x1296x31");
     g.sample_size(10).measurement_time(Duration::from_secs(20));
     g.bench_function("paper_mode_auto_critical_angle", |b| {
-        b.iter(|| encode(&set, &EncodeOptions::default()).unwrap())
+        b.iter(|| encode(&set, &EncodeOptions::paper()).unwrap())
     });
     g.bench_function("direct_sh_level_4", |b| {
         let o = EncodeOptions {
             peak: PeakMode::None,
             sh_level: Some(4),
-            ..EncodeOptions::default()
+            ..EncodeOptions::paper()
         };
         b.iter(|| encode(&set, &o).unwrap())
     });

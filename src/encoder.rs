@@ -15,10 +15,13 @@ use rayon::prelude::*;
 #[derive(Debug, Clone, PartialEq)]
 pub struct EncodeOptions {
     pub basis: SpectralBasis,
-    /// Number of spectral terms K (the paper: 13 = a0, a1..a6, b1..b6).
-    pub terms: usize,
-    /// SH level L; `None` picks the paper's choice for the peak mode (1 with a peak, its Fig. 6;
-    /// 4 without, its Fig. 4).
+    /// Number of spectral terms K (the paper: 13 = a0, a1..a6, b1..b6). `None`: 13 for the
+    /// analytic bases; for the data-derived basis the smallest rank whose out-of-basis error is
+    /// at most half the error budget (0.5% without one) at every incidence, at most 8.
+    pub terms: Option<usize>,
+    /// SH level L (with an error budget, the largest level tried); `None` picks the paper's
+    /// choice for its modes (1 with a peak, its Fig. 6; 4 without, its Fig. 4) and 6 for the
+    /// joint fit.
     pub sh_level: Option<usize>,
     pub peak: PeakMode,
     pub critical_angle: CriticalAngle,
@@ -26,7 +29,7 @@ pub struct EncodeOptions {
     /// Lobe families the joint fit may use (`--lobes`).
     pub lobes: Vec<LobeFamily>,
     /// Per-incidence relative error budget (`--max-error`): the joint fit picks the smallest
-    /// model meeting it.
+    /// model meeting it. The default is 0.5%.
     pub max_error: Option<f64>,
     /// Store the outgoing directions seen (`samp` chunk) so `decode` can write them back.
     pub sample_positions: bool,
@@ -36,21 +39,39 @@ pub struct EncodeOptions {
     pub inputs: Vec<String>,
 }
 
+/// The default error budget per incidence (relative L2).
+pub const DEFAULT_MAX_ERROR: f64 = 0.005;
+
+impl EncodeOptions {
+    /// The paper's method as the paper ran it: 13 periodic Fourier terms, SH level 1, Gaussian
+    /// peak outside an automatically chosen critical angle, f32.
+    pub fn paper() -> Self {
+        EncodeOptions {
+            basis: SpectralBasis::PeriodicFourier,
+            terms: Some(13),
+            peak: PeakMode::Paper,
+            precision: Precision::F32,
+            max_error: None,
+            ..Self::default()
+        }
+    }
+}
+
 impl Default for EncodeOptions {
     fn default() -> Self {
         EncodeOptions {
-            basis: SpectralBasis::PeriodicFourier,
-            terms: 13,
+            basis: SpectralBasis::Tabulated,
+            terms: None,
             sh_level: None,
-            peak: PeakMode::Paper,
+            peak: PeakMode::Joint,
             critical_angle: CriticalAngle::Auto,
-            precision: Precision::F32,
+            precision: Precision::F16,
             lobes: vec![
                 LobeFamily::Gaussian,
                 LobeFamily::Microfacet,
                 LobeFamily::MicrofacetSin2,
             ],
-            max_error: None,
+            max_error: Some(DEFAULT_MAX_ERROR),
             sample_positions: true,
             provenance: Vec::new(),
             inputs: Vec::new(),
@@ -62,23 +83,34 @@ impl EncodeOptions {
     pub fn effective_sh_level(&self) -> usize {
         self.sh_level.unwrap_or(match self.peak {
             PeakMode::Paper => 1,
-            PeakMode::None | PeakMode::Joint => 4,
+            PeakMode::None => 4,
+            PeakMode::Joint => 6,
         })
+    }
+
+    /// The number of terms to fit, resolving `None`.
+    pub fn effective_terms(&self, set: &SampleSet) -> usize {
+        match (self.terms, self.basis) {
+            (Some(k), _) => k,
+            (None, SpectralBasis::Tabulated) => {
+                auto_rank(set, 0.5 * self.max_error.unwrap_or(DEFAULT_MAX_ERROR), 8)
+            }
+            (None, _) => 13.min(set.wavelengths.len()),
+        }
     }
 
     fn check(&self, set: &SampleSet) -> Result<()> {
         let w = set.wavelengths.len();
-        if self.terms == 0 || self.terms > MAX_TERMS {
+        let terms = self.effective_terms(set);
+        if terms == 0 || terms > MAX_TERMS {
             return Err(Error::Parameter(format!(
-                "--terms {} is outside 1..={MAX_TERMS}",
-                self.terms
+                "--terms {terms} is outside 1..={MAX_TERMS}"
             )));
         }
-        if self.terms > w {
+        if terms > w {
             return Err(Error::Parameter(format!(
-                "--terms {} exceeds the {w} wavelength samples of the input: a spectral series \
-                 cannot have more terms than samples (use --terms {w} or fewer)",
-                self.terms
+                "--terms {terms} exceeds the {w} wavelength samples of the input: a spectral \
+                 series cannot have more terms than samples (use --terms {w} or fewer)"
             )));
         }
         let l = self.effective_sh_level();
@@ -130,9 +162,10 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
     set.validate()
         .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
     opts.check(set)?;
-    let mut spectral = spectral_space(opts.basis, opts.terms, &set.wavelengths);
+    let terms = opts.effective_terms(set);
+    let mut spectral = spectral_space(opts.basis, terms, &set.wavelengths);
     if opts.basis == SpectralBasis::Tabulated {
-        spectral.table = Some(derive_basis(set, opts.terms));
+        spectral.table = Some(derive_basis(set, terms, opts.precision));
     }
     spectral.validate().map_err(Error::Parameter)?;
     let mut ctx = FitContext::new(
@@ -176,6 +209,15 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         records.push(f.record);
     }
     let rel_error = rel(sq_e, sq_r);
+    // Records may use fewer terms than were fitted (--max-error): the file keeps only as many
+    // basis functions as some record uses.
+    let used = records.iter().map(|r| r.terms).max().unwrap_or(1);
+    if used < spectral.terms {
+        spectral.terms = used;
+        if let Some(t) = &mut spectral.table {
+            t.values.truncate(used * t.nodes.len());
+        }
+    }
     let metadata = metadata_json(opts, rel_error);
     let material = Material {
         version_minor: crate::format::VERSION_MINOR,
@@ -204,11 +246,37 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
     })
 }
 
+/// The smallest rank r ≤ `max` (and ≤ W) whose leading r singular vectors leave at most `limit`
+/// relative error at every incidence.
+pub fn auto_rank(set: &SampleSet, limit: f64, max: usize) -> usize {
+    let w = set.wavelengths.len();
+    let max = max.min(w).max(1);
+    let table = derive_basis(set, max, Precision::F32);
+    for r in 1..max {
+        let ok = set.incidences.iter().all(|s| {
+            let (mut total, mut kept) = (0.0, 0.0);
+            for spectrum in s.values.chunks(w) {
+                total += spectrum.iter().map(|v| v * v).sum::<f64>();
+                for k in 0..r {
+                    let row = &table.values[k * w..(k + 1) * w];
+                    let c: f64 = row.iter().zip(spectrum).map(|(a, b)| a * b).sum();
+                    kept += c * c;
+                }
+            }
+            total <= 0.0 || ((total - kept).max(0.0) / total).sqrt() <= limit
+        });
+        if ok {
+            return r;
+        }
+    }
+    max
+}
+
 /// A spectral basis derived from the data: the leading `rank` right singular vectors of all
 /// spectra stacked (each incidence scaled to unit norm, so every incidence weighs the same in
 /// the relative error), each made positive at its largest entry (a deterministic sign) and
-/// rounded to f32 as the file stores it.
-pub fn derive_basis(set: &SampleSet, rank: usize) -> BasisTable {
+/// rounded to the precision the file stores it in (the fit then uses exactly those values).
+pub fn derive_basis(set: &SampleSet, rank: usize, precision: Precision) -> BasisTable {
     let w = set.wavelengths.len();
     let rows: usize = set.incidences.iter().map(|s| s.directions.len()).sum();
     let mut m = nalgebra::DMatrix::zeros(rows, w);
@@ -244,11 +312,15 @@ pub fn derive_basis(set: &SampleSet, rank: usize) -> BasisTable {
             .cloned()
             .fold(0.0f64, |a, v| if v.abs() > a.abs() { v } else { a });
         let sign = if big < 0.0 { -1.0 } else { 1.0 };
-        values.extend(row.iter().map(|v| (sign * v) as f32 as f64));
+        values.extend(row.iter().map(|v| match precision {
+            Precision::F32 => (sign * v) as f32 as f64,
+            Precision::F16 => half::f16::from_f64(sign * v).to_f64(),
+        }));
     }
     BasisTable {
         nodes: set.wavelengths.iter().map(|&l| l as f32 as f64).collect(),
         values,
+        precision,
     }
 }
 
@@ -269,36 +341,65 @@ pub fn spectral_space(basis: SpectralBasis, terms: usize, wavelengths: &[f64]) -
 }
 
 fn metadata_json(opts: &EncodeOptions, rel_error: f64) -> String {
-    let critical = match opts.critical_angle {
-        CriticalAngle::Auto => serde_json::Value::from("auto"),
-        CriticalAngle::Fixed(g) => serde_json::Value::from(g),
+    use serde_json::{json, Map, Value};
+    // Only the options that shaped this file, so the metadata stays small next to the model.
+    let mut options = Map::new();
+    options.insert("basis".into(), json!(opts.basis.name()));
+    if let Some(t) = opts.terms {
+        options.insert("terms".into(), json!(t));
+    }
+    options.insert("sh_level".into(), json!(opts.effective_sh_level()));
+    let peak = match opts.peak {
+        PeakMode::Paper => "paper",
+        PeakMode::None => "none",
+        PeakMode::Joint => "joint",
     };
-    let provenance: serde_json::Map<String, serde_json::Value> = opts
-        .provenance
-        .iter()
-        .map(|(k, v)| (k.clone(), serde_json::Value::from(v.clone())))
-        .collect();
-    let v = serde_json::json!({
-        "encoder": format!("sbrdf {}", env!("CARGO_PKG_VERSION")),
-        "options": {
-            "basis": opts.basis.name(),
-            "terms": opts.terms,
-            "sh_level": opts.effective_sh_level(),
-            "peak": match opts.peak {
-                PeakMode::Paper => "paper",
-                PeakMode::None => "none",
-                PeakMode::Joint => "joint",
-            },
-            "critical_angle": critical,
-            "precision": opts.precision.name(),
-            "lobes": opts.lobes.iter().map(|l| l.name()).collect::<Vec<_>>(),
-            "max_error": opts.max_error,
+    options.insert("peak".into(), json!(peak));
+    match (opts.peak, opts.critical_angle) {
+        (PeakMode::Paper, CriticalAngle::Auto) => {
+            options.insert("critical_angle".into(), json!("auto"));
+        }
+        (PeakMode::Paper, CriticalAngle::Fixed(g)) => {
+            options.insert("critical_angle".into(), json!(g));
+        }
+        (PeakMode::Joint, _) => {
+            let lobes: Vec<&str> = opts.lobes.iter().map(|l| l.name()).collect();
+            options.insert("lobes".into(), json!(lobes));
+            if let Some(e) = opts.max_error {
+                options.insert("max_error".into(), json!(e));
+            }
+        }
+        _ => {}
+    }
+    options.insert("precision".into(), json!(opts.precision.name()));
+    let mut v = Map::new();
+    v.insert(
+        "encoder".into(),
+        json!(format!("sbrdf {}", env!("CARGO_PKG_VERSION"))),
+    );
+    v.insert("options".into(), Value::Object(options));
+    if !opts.inputs.is_empty() {
+        v.insert("inputs".into(), json!(opts.inputs));
+    }
+    if !opts.provenance.is_empty() {
+        let p: Map<String, Value> = opts
+            .provenance
+            .iter()
+            .map(|(k, val)| (k.clone(), json!(val)))
+            .collect();
+        v.insert("provenance".into(), Value::Object(p));
+    }
+    // Four significant digits are all an error figure needs.
+    let rounded: f64 = format!("{rel_error:.3e}").parse().unwrap_or(rel_error);
+    v.insert(
+        "rel_error".into(),
+        if rounded.is_finite() {
+            json!(rounded)
+        } else {
+            Value::Null
         },
-        "inputs": opts.inputs,
-        "provenance": provenance,
-        "rel_error": rel_error,
-    });
-    v.to_string()
+    );
+    Value::Object(v).to_string()
 }
 
 /// Describes each incidence's outgoing directions, as a grid where they form one exactly

@@ -132,9 +132,13 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     push_chunk(&mut out, CHUNK_HEAD, &d);
 
     if let Some(table) = &m.spectral.table {
-        let mut d = Vec::with_capacity(4 * table.values.len());
+        let mut d = Vec::with_capacity(4 + 4 * table.values.len());
+        d.extend_from_slice(&[table.precision.code(), 0, 0, 0]);
         for v in &table.values {
-            d.extend_from_slice(&(*v as f32).to_le_bytes());
+            match table.precision {
+                Precision::F32 => d.extend_from_slice(&(*v as f32).to_le_bytes()),
+                Precision::F16 => d.extend_from_slice(&f16::from_f64(*v).to_le_bytes()),
+            }
         }
         push_chunk(&mut out, CHUNK_SBAS, &d);
     }
@@ -704,25 +708,32 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                         "SBAS must appear once, before the records".into(),
                     ));
                 }
-                let need = 4 * h.spectral.terms as u64 * h.wavelengths.len() as u64;
+                let code = f.u8("precision")?;
+                let precision = Precision::from_code(code)
+                    .ok_or_else(|| f.unsupported(format!("unknown basis precision code {code}")))?;
+                f.zero(3, "reserved")?;
+                let count = h.spectral.terms * h.wavelengths.len();
+                let need = 4 + (count * precision.bytes()) as u64;
                 if need != len as u64 {
                     return Err(malformed(
                         pos,
                         Some(kind),
                         format!(
-                            "{} terms × {} wavelengths need {need} bytes, the chunk has {len}",
+                            "{} terms × {} wavelengths in {} need {need} bytes, the chunk has {len}",
                             h.spectral.terms,
-                            h.wavelengths.len()
+                            h.wavelengths.len(),
+                            precision.name()
                         ),
                     ));
                 }
-                let mut values = Vec::with_capacity(len / 4);
-                for _ in 0..len / 4 {
-                    values.push(f.f32("basis_value")? as f64);
+                let mut values = Vec::with_capacity(count);
+                for _ in 0..count {
+                    values.push(f.stored(precision, 1.0, "basis_value")? as f64);
                 }
                 table = Some(crate::spectral::BasisTable {
                     nodes: h.wavelengths.iter().map(|&w| w as f64).collect(),
                     values,
+                    precision,
                 });
             }
             (&CHUNK_RECD, Some(h)) => {

@@ -24,6 +24,7 @@ coefficients of each spectral coefficient plus a specular peak (Xu & Sun). Angle
     after_help = "Examples:\n  \
 sbrdf synth phong --diffuse green --specular white --kd 1 --ks 15 --n 15 --incident 15,0 -o phong.csv\n  \
 sbrdf encode phong.csv -o phong.sbrdf\n  \
+sbrdf encode phong.csv -o paper.sbrdf --basis fourier --peak paper --precision f32\n  \
 sbrdf info phong.sbrdf\n  \
 sbrdf eval phong.sbrdf --incident 15,0 --outgoing 15,180 --wavelengths 450,550,650\n  \
 sbrdf decode phong.sbrdf -o back.csv --like phong.csv\n  \
@@ -113,22 +114,25 @@ struct EncodeArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Spectral basis.
-    #[arg(long, value_enum, default_value = "fourier")]
+    #[arg(long, value_enum, default_value = "data")]
     basis: BasisArg,
-    /// Number of spectral terms K (13 = a0, a1..a6, b1..b6).
-    #[arg(long, default_value_t = 13)]
-    terms: usize,
-    /// Spherical-harmonic level L [default: 1 with --peak paper, 4 otherwise].
+    /// Number of spectral terms K (13 = a0, a1..a6, b1..b6 for fourier) [default: 13 for
+    /// fourier and cosine; for data the smallest rank leaving ≤ half the error budget, ≤ 8].
+    #[arg(long)]
+    terms: Option<usize>,
+    /// Spherical-harmonic level L (with an error budget, the highest tried) [default: 6 with
+    /// --peak joint, 1 with --peak paper, 4 with --peak none].
     #[arg(long)]
     sh_level: Option<usize>,
     /// How the specular peak is represented.
-    #[arg(long, value_enum, default_value = "paper")]
+    #[arg(long, value_enum, default_value = "joint")]
     peak: PeakArg,
     /// Critical angle in degrees around the peak, or `auto` to minimise the error.
     #[arg(long, default_value = "auto")]
     critical_angle: String,
-    /// Storage precision of coefficients.
-    #[arg(long, value_enum, default_value = "f32")]
+    /// Storage precision of coefficients (with an error budget, f16 records fall back to f32
+    /// where f16 misses it).
+    #[arg(long, value_enum, default_value = "f16")]
     precision: PrecisionArg,
     /// Lobe shapes the joint fit may use, per incidence the better one.
     #[arg(
@@ -139,7 +143,8 @@ struct EncodeArgs {
     )]
     lobes: Vec<LobeArg>,
     /// Relative error budget per incident direction (0.01 = 1%): with --peak joint, the smallest
-    /// model (spectral terms, SH level, lobe, precision) meeting it. Fails if it cannot be met.
+    /// model (spectral terms, SH level, lobe, precision) meeting it. Given explicitly, the encode
+    /// fails where it cannot be met [default with --peak joint: 0.5%, best effort].
     #[arg(long, value_name = "E")]
     max_error: Option<String>,
     /// With --max-error: write the most accurate model where the budget cannot be met, and
@@ -397,7 +402,11 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
                 LobeArg::MicrofacetSin2 => LobeFamily::MicrofacetSin2,
             })
             .collect(),
-        max_error: a.max_error.as_deref().map(parse_fraction).transpose()?,
+        max_error: match (&a.max_error, a.peak) {
+            (Some(e), _) => Some(parse_fraction(e)?),
+            (None, PeakArg::Joint) => Some(sbrdf::encoder::DEFAULT_MAX_ERROR),
+            (None, _) => None,
+        },
         sample_positions: !a.no_sample_positions,
         provenance,
         inputs: a.inputs.iter().map(|p| p.display().to_string()).collect(),
@@ -414,17 +423,22 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
             })
             .collect();
         let msg = format!(
-            "--max-error {} cannot be met at {} incident direction(s); best errors reached: {}",
+            "the error budget {} cannot be met at {} incident direction(s); best errors reached: {}",
             opts.max_error.unwrap(),
             list.len(),
             list.join(", ")
         );
-        if !a.best_effort {
+        if !a.best_effort && a.max_error.is_some() {
             return Err(Error::Parameter(format!(
                 "{msg}. Nothing written; raise the budget or add --best-effort"
             )));
         }
-        eprintln!("sbrdf: warning: {msg} (written anyway: --best-effort)");
+        let why = if a.best_effort {
+            "--best-effort"
+        } else {
+            "the default budget is best effort"
+        };
+        eprintln!("sbrdf: warning: {msg} (written anyway: {why})");
     }
     let bytes = sbrdf::write_material(&encoded.material)?;
     write_bytes_atomic(&a.output, &bytes)?;

@@ -300,8 +300,15 @@ impl Material {
             {
                 return Err("the basis table's nodes are not the file's wavelengths".into());
             }
-            if t.values.iter().any(|v| (*v as f32) as f64 != *v) {
-                return Err("basis table values must be f32 numbers".into());
+            let representable = |v: f64| match t.precision {
+                Precision::F32 => (v as f32) as f64 == v,
+                Precision::F16 => half::f16::from_f64(v).to_f64() == v,
+            };
+            if let Some(v) = t.values.iter().find(|v| !representable(**v)) {
+                return Err(format!(
+                    "basis table value {v} is not exactly a {} number",
+                    t.precision.name()
+                ));
             }
         }
         if self.records.is_empty() || self.records.len() > MAX_INCIDENCES {

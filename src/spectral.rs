@@ -55,6 +55,8 @@ pub struct BasisTable {
     pub nodes: Vec<f64>,
     /// `terms` rows of `nodes.len()` values: row k is basis function k.
     pub values: Vec<f64>,
+    /// How the values are stored (each value must be exactly representable in it).
+    pub precision: crate::material::Precision,
 }
 
 /// A spectral basis with its number of terms and the wavelength interval it spans.
@@ -265,6 +267,7 @@ mod tests {
             table: Some(BasisTable {
                 nodes: vec![400.0, 500.0, 700.0],
                 values: vec![1.0, 2.0, 4.0, 0.0, -1.0, 1.0],
+                precision: crate::material::Precision::F32,
             }),
             ..SpectralSpace::analytic(SpectralBasis::Tabulated, 2, 400.0, 700.0)
         };

@@ -262,7 +262,10 @@ fn bad_paths_and_failed_runs_leave_outputs_alone() {
         "precious"
     );
     // Options the data cannot satisfy: a clear error, nothing written.
-    let o = sbrdf(&["encode", "in.csv", "-o", "k.sbrdf"], dir.path());
+    let o = sbrdf(
+        &["encode", "in.csv", "-o", "k.sbrdf", "--terms", "13"],
+        dir.path(),
+    );
     assert!(
         !o.status.success() && stderr(&o).contains("--terms 13 exceeds the 2 wavelength"),
         "{}",

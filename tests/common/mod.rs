@@ -34,7 +34,15 @@ pub fn paper_samples(ks: f64, n: f64, incidences: &[(f64, f64)]) -> SampleSet {
     )
 }
 
+/// Encodes with the paper's options, changed by `f`.
 pub fn encode_with(set: &SampleSet, f: impl FnOnce(&mut EncodeOptions)) -> Encoded {
+    let mut o = EncodeOptions::paper();
+    f(&mut o);
+    encode(set, &o).expect("encode")
+}
+
+/// Encodes with the defaults (the joint fit within 0.5%), changed by `f`.
+pub fn encode_default(set: &SampleSet, f: impl FnOnce(&mut EncodeOptions)) -> Encoded {
     let mut o = EncodeOptions::default();
     f(&mut o);
     encode(set, &o).expect("encode")
