@@ -189,6 +189,13 @@ impl Decoder {
         }
         for lobe in &r.lobes {
             match lobe.kind {
+                LobeKind::CosinePower => {
+                    let cos = crate::angles::dot(wo, self.peaks[index]).max(0.0);
+                    let g = cos.powf(lobe.params[0] as f64);
+                    for (kk, ck) in c[..k].iter_mut().enumerate() {
+                        *ck += lobe.amplitude[kk] as f64 * g;
+                    }
+                }
                 LobeKind::AngleGaussian => {
                     let alpha = angle_between(wo, self.peaks[index]);
                     let a2 = alpha * alpha;

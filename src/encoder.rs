@@ -67,6 +67,7 @@ impl Default for EncodeOptions {
             critical_angle: CriticalAngle::Auto,
             precision: Precision::F16,
             lobes: vec![
+                LobeFamily::CosinePower,
                 LobeFamily::Gaussian,
                 LobeFamily::Microfacet,
                 LobeFamily::MicrofacetSin2,

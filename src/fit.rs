@@ -302,6 +302,14 @@ impl FitContext {
         let mut c = y.columns(0, p) * a;
         for lobe in &r.lobes {
             match lobe.kind {
+                LobeKind::CosinePower => {
+                    for (i, al) in alpha.iter().enumerate() {
+                        let g = al.cos().max(0.0).powf(lobe.params[0] as f64);
+                        for kk in 0..k {
+                            c[(i, kk)] += lobe.amplitude[kk] as f64 * g;
+                        }
+                    }
+                }
                 LobeKind::AngleGaussian => {
                     for (i, al) in alpha.iter().enumerate() {
                         for kk in 0..k {

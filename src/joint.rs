@@ -29,6 +29,8 @@ pub enum LobeFamily {
     Microfacet,
     /// The half-vector microfacet lobe in sin²θh (kind 3; holds GGX exactly).
     MicrofacetSin2,
+    /// Phong's cosine-power lobe about the peak direction (kind 4).
+    CosinePower,
 }
 
 impl LobeFamily {
@@ -37,6 +39,7 @@ impl LobeFamily {
             LobeFamily::Gaussian => "gaussian",
             LobeFamily::Microfacet => "microfacet",
             LobeFamily::MicrofacetSin2 => "microfacet-sin2",
+            LobeFamily::CosinePower => "cosine-power",
         }
     }
 }
@@ -143,10 +146,12 @@ fn prepare(ctx: &FitContext, s: &IncidentSamples) -> Result<Incidence, String> {
     })
 }
 
-/// Shape parameters are searched unconstrained: Gaussian [ln b]; microfacet [ln b, ln c, logit a].
+/// Shape parameters are searched unconstrained: Gaussian [ln b]; cosine power [ln n];
+/// microfacet [ln b, ln c, logit a].
 fn decode_params(family: LobeFamily, x: &[f64]) -> Vec<f64> {
     match family {
         LobeFamily::Gaussian => vec![x[0].clamp(-30.0, 30.0).exp()],
+        LobeFamily::CosinePower => vec![x[0].clamp(-5.0, 7.0 * std::f64::consts::LN_10).exp()],
         // Safeguards: b ≤ 10⁷ (narrower than any sampling resolves), c ≥ 0.05.
         LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 => vec![
             x[0].clamp(-30.0, 7.0 * std::f64::consts::LN_10).exp(),
@@ -163,6 +168,14 @@ fn lobe_columns(inc: &Incidence, family: LobeFamily, params: &[f64]) -> DMatrix<
         LobeFamily::Gaussian => {
             let b = params[0] as f32 as f64;
             DMatrix::from_iterator(inc.n, 1, inc.alpha2.iter().map(|a| (-a / b).exp()))
+        }
+        LobeFamily::CosinePower => {
+            let n = params[0] as f32 as f64;
+            DMatrix::from_iterator(
+                inc.n,
+                1,
+                inc.alpha2.iter().map(|a| a.sqrt().cos().max(0.0).powf(n)),
+            )
         }
         LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 => {
             let p32: Vec<f32> = params.iter().map(|&v| v as f32).collect();
@@ -184,6 +197,9 @@ fn initial_grid(family: LobeFamily) -> Vec<Vec<f64>> {
     match family {
         LobeFamily::Gaussian => (0..=40)
             .map(|i| vec![(1e-7f64).ln() + (4e7f64).ln() * i as f64 / 40.0])
+            .collect(),
+        LobeFamily::CosinePower => (0..=30)
+            .map(|i| vec![-2.0 + (2.0 + 7.0 * std::f64::consts::LN_10) * i as f64 / 30.0])
             .collect(),
         LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 => {
             let mut g = Vec::new();
@@ -259,12 +275,13 @@ fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64, iters: usize) -
     simplex.swap_remove(0)
 }
 
-fn fit_level(inc: &Incidence, level: usize, family: Option<LobeFamily>) -> LevelFit {
+/// Searches the shape parameters of `family` with the SH background of `level` projected out.
+fn search_shape(inc: &Incidence, level: usize, fam: LobeFamily) -> Vec<f64> {
     let p = sh_count(level);
     let y = inc.y.columns(0, p).into_owned();
     let qy = column_space(&y);
     let c_perp = &inc.cq - &qy * (qy.transpose() * &inc.cq);
-    let lobe = family.map(|fam| {
+    {
         let objective = |x: &[f64]| {
             -gain(
                 &qy,
@@ -287,8 +304,14 @@ fn fit_level(inc: &Incidence, level: usize, family: Option<LobeFamily>) -> Level
                 best = r;
             }
         }
-        (fam, decode_params(fam, &best.0))
-    });
+        decode_params(fam, &best.0)
+    }
+}
+
+/// Solves SH level `level` plus the lobe of the given shape (if any) by least squares.
+fn fit_level(inc: &Incidence, level: usize, lobe: Option<(LobeFamily, Vec<f64>)>) -> LevelFit {
+    let p = sh_count(level);
+    let y = inc.y.columns(0, p).into_owned();
     let m = match &lobe {
         Some((fam, params)) => {
             let cols = lobe_columns(inc, *fam, params);
@@ -344,6 +367,11 @@ impl LevelFit {
                 amplitude: (0..r).map(|kk| x[(p, kk)] as f32).collect(),
                 params: vec![params[0] as f32; r],
             }],
+            Some((LobeFamily::CosinePower, params)) => vec![Lobe {
+                kind: LobeKind::CosinePower,
+                amplitude: (0..r).map(|kk| x[(p, kk)] as f32).collect(),
+                params: vec![params[0] as f32],
+            }],
             Some((fam @ (LobeFamily::Microfacet | LobeFamily::MicrofacetSin2), params)) => {
                 vec![Lobe {
                     kind: if *fam == LobeFamily::Microfacet {
@@ -388,6 +416,7 @@ fn record_bytes(
     let lobe = match lobe {
         None => 0,
         Some(LobeFamily::Gaussian) => 4 + terms * s + 4 * terms,
+        Some(LobeFamily::CosinePower) => 4 + terms * s + 4,
         Some(LobeFamily::Microfacet | LobeFamily::MicrofacetSin2) => 4 + 4 * terms * s + 12,
     };
     12 + 40 + terms * sh_count(level) * s + lobe
@@ -406,11 +435,29 @@ pub fn fit_joint(
         Some(_) => (0..=opts.max_sh_level).collect(),
         None => vec![opts.max_sh_level],
     };
+    // Shapes are searched at two levels only, the lowest and the highest tried, and each level
+    // reuses the shape found at the nearer one: the best shape moves little with the SH level,
+    // and the search is most of the cost.
+    let (lo, hi) = (levels[0], levels[levels.len() - 1]);
+    let shapes: Vec<(LobeFamily, Vec<f64>, Vec<f64>)> = opts
+        .families
+        .iter()
+        .map(|&fam| {
+            let at_hi = search_shape(&inc, hi, fam);
+            let at_lo = if lo == hi {
+                at_hi.clone()
+            } else {
+                search_shape(&inc, lo.max(1).min(hi), fam)
+            };
+            (fam, at_lo, at_hi)
+        })
+        .collect();
     let mut fits = Vec::new();
     for &level in &levels {
         fits.push(fit_level(&inc, level, None));
-        for &fam in &opts.families {
-            fits.push(fit_level(&inc, level, Some(fam)));
+        for (fam, at_lo, at_hi) in &shapes {
+            let shape = if level * 2 < lo + hi { at_lo } else { at_hi };
+            fits.push(fit_level(&inc, level, Some((*fam, shape.clone()))));
         }
     }
     let finish = |mut record: IncidentRecord, precision: Precision| {

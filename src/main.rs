@@ -91,6 +91,8 @@ enum PeakArg {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum LobeArg {
+    /// Phong's lobe: a power of the cosine of the angle from the peak direction.
+    CosinePower,
     /// A Gaussian in the angle from the peak direction.
     Gaussian,
     /// A microfacet lobe in the half vector (1 − cos θh), with shadowing and Fresnel variants.
@@ -139,7 +141,7 @@ struct EncodeArgs {
         long,
         value_enum,
         value_delimiter = ',',
-        default_value = "gaussian,microfacet,microfacet-sin2"
+        default_value = "cosine-power,gaussian,microfacet,microfacet-sin2"
     )]
     lobes: Vec<LobeArg>,
     /// Relative error budget per incident direction (0.01 = 1%): with --peak joint, the smallest
@@ -398,6 +400,7 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
             .iter()
             .map(|l| match l {
                 LobeArg::Gaussian => LobeFamily::Gaussian,
+                LobeArg::CosinePower => LobeFamily::CosinePower,
                 LobeArg::Microfacet => LobeFamily::Microfacet,
                 LobeArg::MicrofacetSin2 => LobeFamily::MicrofacetSin2,
             })

@@ -70,6 +70,9 @@ pub enum LobeKind {
     /// As [`LobeKind::Microfacet`] with D = (1 + b·sin²θh)^(−c), which holds GGX exactly
     /// (b = (1 − α²)/α², c = 2).
     MicrofacetSin2,
+    /// Phong's lobe about the record's peak direction: term k adds p_k·max(0, cos α)ⁿ, one
+    /// exponent n > 0 for all terms. Amplitudes: p_k (one per term); parameters: n.
+    CosinePower,
 }
 
 impl LobeKind {
@@ -78,6 +81,7 @@ impl LobeKind {
             LobeKind::AngleGaussian => 1,
             LobeKind::Microfacet => 2,
             LobeKind::MicrofacetSin2 => 3,
+            LobeKind::CosinePower => 4,
         }
     }
     pub fn from_code(c: u8) -> Option<Self> {
@@ -85,6 +89,7 @@ impl LobeKind {
             1 => Some(LobeKind::AngleGaussian),
             2 => Some(LobeKind::Microfacet),
             3 => Some(LobeKind::MicrofacetSin2),
+            4 => Some(LobeKind::CosinePower),
             _ => None,
         }
     }
@@ -93,12 +98,13 @@ impl LobeKind {
             LobeKind::AngleGaussian => "angle-gaussian",
             LobeKind::Microfacet => "microfacet",
             LobeKind::MicrofacetSin2 => "microfacet-sin2",
+            LobeKind::CosinePower => "cosine-power",
         }
     }
     /// Number of stored amplitudes for a record of `terms` spectral terms.
     pub fn amplitude_count(self, terms: usize) -> usize {
         match self {
-            LobeKind::AngleGaussian => terms,
+            LobeKind::AngleGaussian | LobeKind::CosinePower => terms,
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => 4 * terms,
         }
     }
@@ -107,11 +113,17 @@ impl LobeKind {
         match self {
             LobeKind::AngleGaussian => terms,
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => 3,
+            LobeKind::CosinePower => 1,
         }
     }
     /// Checks the shape parameters; the message says which is wrong.
     pub fn check_params(self, params: &[f32]) -> Result<(), String> {
         match self {
+            LobeKind::CosinePower => {
+                if !(params[0].is_finite() && params[0] > 0.0) {
+                    return Err(format!("cosine-power exponent {} is not > 0", params[0]));
+                }
+            }
             LobeKind::AngleGaussian => {
                 if let Some(v) = params.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
                     return Err(format!("lobe width {v} is not a positive number"));
