@@ -216,14 +216,37 @@ fn golden_files_decode_to_their_source_material() {
         let dec = Decoder::from_bytes(&bytes).unwrap();
         let m = dec.material();
         let f: Vec<&str> = source.split_whitespace().collect();
-        assert_eq!(f[0], "phong");
         let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
-        let phong = sbrdf::synth::Phong {
-            diffuse: t.sample(t.find(f[1]).unwrap(), &wl).unwrap(),
-            specular: t.sample(t.find(f[2]).unwrap(), &wl).unwrap(),
-            kd: f[3].parse().unwrap(),
-            ks: f[4].parse().unwrap(),
-            n: f[5].parse().unwrap(),
+        let truth_fn: Box<dyn Fn((f64, f64), (f64, f64), usize) -> f64> = match f[0] {
+            "phong" => {
+                let phong = sbrdf::synth::Phong {
+                    diffuse: t.sample(t.find(f[1]).unwrap(), &wl).unwrap(),
+                    specular: t.sample(t.find(f[2]).unwrap(), &wl).unwrap(),
+                    kd: f[3].parse().unwrap(),
+                    ks: f[4].parse().unwrap(),
+                    n: f[5].parse().unwrap(),
+                };
+                Box::new(move |i, o, w| phong.value(i, o, w))
+            }
+            "ggx" => {
+                let ggx = sbrdf::synth::Ggx {
+                    alpha: f[1].parse().unwrap(),
+                    diffuse: t.sample(t.find(f[2]).unwrap(), &wl).unwrap(),
+                    f0: t
+                        .sample(t.find(f[3]).unwrap(), &wl)
+                        .unwrap()
+                        .iter()
+                        .map(|v| 0.04 + 0.5 * v)
+                        .collect(),
+                    kd: f[4].parse().unwrap(),
+                };
+                Box::new(move |i, o, w| ggx.value(i, o, w))
+            }
+            "abc" => {
+                let abc = sbrdf::synth::Abc::from_table(f[1], f[2], &wl).unwrap();
+                Box::new(move |i, o, w| abc.value(i, o, w))
+            }
+            other => panic!("unknown source {other}"),
         };
         let sp = m
             .sample_positions
@@ -237,7 +260,7 @@ fn golden_files_decode_to_their_source_material() {
             for d in &dirs {
                 dec.eval_deg(inc, (d[0], d[1]), &wl, &mut out);
                 approx.extend_from_slice(&out);
-                truth.extend((0..wl.len()).map(|w| phong.value(inc, (d[0], d[1]), w)));
+                truth.extend((0..wl.len()).map(|w| truth_fn(inc, (d[0], d[1]), w)));
             }
             let e = rel_l2(&approx, &truth);
             // The CSV holds the samples to ~1e-16, so the error matches to float precision.
@@ -249,5 +272,5 @@ fn golden_files_decode_to_their_source_material() {
             checked += 1;
         }
     }
-    assert!(checked >= 7, "only {checked} golden records checked");
+    assert!(checked >= 15, "only {checked} golden records checked");
 }
