@@ -63,3 +63,101 @@ pub fn rel_l2(approx: &[f64], reference: &[f64]) -> f64 {
 pub fn samples_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("samples")
 }
+
+/// The paper's outgoing grid at the given incidences, sampled from `f`.
+pub fn sample_on_paper_grid(
+    incidences: &[(f64, f64)],
+    f: impl Fn((f64, f64), (f64, f64), usize) -> f64,
+) -> SampleSet {
+    sample_material(&paper_wavelengths(), incidences, &paper_grid(5.0, 5.0), f)
+}
+
+pub fn colorchecker(name: &str) -> Vec<f64> {
+    let t = SpectrumTable::colorchecker();
+    t.sample(t.find(name).unwrap(), &paper_wavelengths()).unwrap()
+}
+
+fn half(wi: [f64; 3], wo: [f64; 3]) -> (f64, f64) {
+    let h = sbrdf::angles::normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]).unwrap();
+    (h[2], sbrdf::angles::dot(wi, h))
+}
+
+/// A material outside every lobe family of the encoder: Beckmann distribution, separable
+/// Smith–Beckmann shadowing (Walter et al. 2007's rational form), exact dielectric Fresnel with
+/// a mildly dispersive index 1.5, Lambert base 0.5·green.
+pub fn beckmann(alpha: f64) -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
+    let green = colorchecker("green");
+    let wl = paper_wavelengths();
+    move |i, o, w| {
+        let wi = sbrdf::angles::dir_from_deg(i.0, i.1);
+        let wo = sbrdf::angles::dir_from_deg(o.0, o.1);
+        let (ci, co) = (wi[2], wo[2]);
+        let base = 0.5 * green[w] / std::f64::consts::PI;
+        if ci <= 0.0 || co <= 0.0 {
+            return base;
+        }
+        let (ch, cd) = half(wi, wo);
+        let t2 = (1.0 - ch * ch) / (ch * ch);
+        let d = (-t2 / (alpha * alpha)).exp()
+            / (std::f64::consts::PI * alpha * alpha * ch.powi(4));
+        let g1 = |c: f64| {
+            let a = c / (alpha * (1.0 - c * c).max(1e-12).sqrt());
+            if a < 1.6 {
+                (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a)
+            } else {
+                1.0
+            }
+        };
+        let eta = 1.5 * (1.0 + 0.02 * (550.0 - wl[w]) / 150.0);
+        let f = sbrdf::synth::fresnel_dielectric(eta, cd);
+        base + d * g1(ci) * g1(co) * f / (4.0 * ci * co)
+    }
+}
+
+/// Two GGX layers (a clear coat α = 0.05 with F0 = 0.04 over a coloured α = 0.4 metal with F0 =
+/// the 'orange yellow' patch) plus 0.3·purple Lambert: two lobes of very different widths.
+pub fn two_layer() -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
+    let coat = sbrdf::synth::Ggx {
+        alpha: 0.05,
+        kd: 0.0,
+        diffuse: vec![0.0; 31],
+        f0: vec![0.04; 31],
+    };
+    let metal = sbrdf::synth::Ggx {
+        alpha: 0.4,
+        kd: 0.0,
+        diffuse: vec![0.0; 31],
+        f0: colorchecker("orange yellow"),
+    };
+    let purple = colorchecker("purple");
+    move |i, o, w| {
+        let wi = sbrdf::angles::dir_from_deg(i.0, i.1);
+        let wo = sbrdf::angles::dir_from_deg(o.0, o.1);
+        coat.specular(wi, wo, coat.f0[w])
+            + metal.specular(wi, wo, metal.f0[w])
+            + 0.3 * purple[w] / std::f64::consts::PI
+    }
+}
+
+pub fn ggx(alpha: f64) -> sbrdf::synth::Ggx {
+    sbrdf::synth::Ggx {
+        alpha,
+        kd: 1.0,
+        diffuse: colorchecker("blue"),
+        f0: colorchecker("yellow").iter().map(|v| 0.04 + 0.5 * v).collect(),
+    }
+}
+
+/// Ten MERL materials from the ABC fits, each with its own ColorChecker diffuse colour.
+pub const ABC_MATERIALS: [(&str, &str); 10] = [
+    ("special-walnut-224", "dark skin"),
+    ("pearl-paint", "orange"),
+    ("silver-metallic-paint2", "moderate red"),
+    ("black-soft-plastic", "yellow green"),
+    ("violet-rubber", "blue"),
+    ("pvc", "red"),
+    ("alum-bronze", "yellow"),
+    ("gray-plastic", "magenta"),
+    ("chrome", "cyan"),
+    ("specular-red-phenolic", "orange yellow"),
+];
