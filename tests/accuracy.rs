@@ -34,7 +34,10 @@ fn phong_grid_within_half_a_percent_at_one_two_hundredth_of_the_size() {
         for n in [1.0, 15.0, 50.0, 200.0, 1000.0] {
             let set = paper_samples(ks, n, &[(15.0, 0.0)]);
             let (errs, bytes) = run(&set, |_| {});
-            eprintln!("phong ks/kd={ks} n={n}: error {:.5}, {bytes} bytes", errs[0]);
+            eprintln!(
+                "phong ks/kd={ks} n={n}: error {:.5}, {bytes} bytes",
+                errs[0]
+            );
             assert!(errs[0] <= 0.005, "ks={ks} n={n}: {}", errs[0]);
             assert!(
                 bytes * 200 <= set.raw_f32_bytes(),
@@ -86,7 +89,10 @@ fn materials_outside_the_lobe_families() {
     let incs: Vec<(f64, f64)> = INCIDENCES.iter().map(|&t| (t, 0.0)).collect();
     let sets = [
         ("Beckmann α=0.2", sample_on_paper_grid(&incs, beckmann(0.2))),
-        ("Beckmann α=0.05", sample_on_paper_grid(&incs, beckmann(0.05))),
+        (
+            "Beckmann α=0.05",
+            sample_on_paper_grid(&incs, beckmann(0.05)),
+        ),
         ("two-layer GGX", sample_on_paper_grid(&incs, two_layer())),
     ];
     for (name, set) in sets {
@@ -97,7 +103,8 @@ fn materials_outside_the_lobe_families() {
 
 #[test]
 fn nist_ptfe_measurement() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nist_ptfe_fr11.csv");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nist_ptfe_fr11.csv");
     let (set, report) = sbrdf::csv_input::read_samples(&[path]).unwrap();
     assert_eq!(report.negative_values, 0);
     assert_eq!(set.wavelengths, vec![351.0, 532.0, 633.0, 1064.0]);
@@ -138,7 +145,10 @@ fn a_looser_budget_gives_a_smaller_file_and_an_impossible_one_is_reported() {
         .map(|&e| {
             let enc = encode_default(&set, |o| o.max_error = Some(e));
             let errs: Vec<f32> = enc.material.records.iter().map(|r| r.rel_error).collect();
-            assert!(errs.iter().all(|x| (*x as f64) <= e), "budget {e}: {errs:?}");
+            assert!(
+                errs.iter().all(|x| (*x as f64) <= e),
+                "budget {e}: {errs:?}"
+            );
             let bytes = model_bytes(&enc.material);
             eprintln!("budget {e}: model {bytes} bytes, errors {errs:?}");
             bytes
@@ -147,7 +157,10 @@ fn a_looser_budget_gives_a_smaller_file_and_an_impossible_one_is_reported() {
     for w in sizes.windows(2) {
         assert!(w[1] <= w[0], "sizes grow with a looser budget: {sizes:?}");
     }
-    assert!(sizes[3] < sizes[0], "the loosest budget is not smaller: {sizes:?}");
+    assert!(
+        sizes[3] < sizes[0],
+        "the loosest budget is not smaller: {sizes:?}"
+    );
     let e = encode_default(&set, |o| o.max_error = Some(1e-9));
     assert_eq!(e.unmet.len(), 3, "a 1e-9 budget cannot be met");
 }

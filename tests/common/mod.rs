@@ -74,7 +74,8 @@ pub fn sample_on_paper_grid(
 
 pub fn colorchecker(name: &str) -> Vec<f64> {
     let t = SpectrumTable::colorchecker();
-    t.sample(t.find(name).unwrap(), &paper_wavelengths()).unwrap()
+    t.sample(t.find(name).unwrap(), &paper_wavelengths())
+        .unwrap()
 }
 
 fn half(wi: [f64; 3], wo: [f64; 3]) -> (f64, f64) {
@@ -98,8 +99,7 @@ pub fn beckmann(alpha: f64) -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
         }
         let (ch, cd) = half(wi, wo);
         let t2 = (1.0 - ch * ch) / (ch * ch);
-        let d = (-t2 / (alpha * alpha)).exp()
-            / (std::f64::consts::PI * alpha * alpha * ch.powi(4));
+        let d = (-t2 / (alpha * alpha)).exp() / (std::f64::consts::PI * alpha * alpha * ch.powi(4));
         let g1 = |c: f64| {
             let a = c / (alpha * (1.0 - c * c).max(1e-12).sqrt());
             if a < 1.6 {
@@ -144,7 +144,10 @@ pub fn ggx(alpha: f64) -> sbrdf::synth::Ggx {
         alpha,
         kd: 1.0,
         diffuse: colorchecker("blue"),
-        f0: colorchecker("yellow").iter().map(|v| 0.04 + 0.5 * v).collect(),
+        f0: colorchecker("yellow")
+            .iter()
+            .map(|v| 0.04 + 0.5 * v)
+            .collect(),
     }
 }
 
