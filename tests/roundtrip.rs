@@ -191,6 +191,9 @@ fn vector_eval_agrees_with_angle_eval_and_respects_horizon() {
     assert!(out.iter().all(|v| v.is_finite()));
 }
 
+/// A material as a function of (incident, outgoing, wavelength index).
+type MaterialFn = dyn Fn((f64, f64), (f64, f64), usize) -> f64;
+
 /// Golden files: decoded, they must reproduce the analytic material they were encoded from,
 /// with exactly the error each record states. The reference values come from the Phong
 /// formula, not from the decoder.
@@ -217,7 +220,7 @@ fn golden_files_decode_to_their_source_material() {
         let m = dec.material();
         let f: Vec<&str> = source.split_whitespace().collect();
         let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
-        let truth_fn: Box<dyn Fn((f64, f64), (f64, f64), usize) -> f64> = match f[0] {
+        let truth_fn: Box<MaterialFn> = match f[0] {
             "phong" => {
                 let phong = sbrdf::synth::Phong {
                     diffuse: t.sample(t.find(f[1]).unwrap(), &wl).unwrap(),
