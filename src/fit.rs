@@ -372,14 +372,36 @@ pub fn rel(sq_error: f64, sq_reference: f64) -> f64 {
 }
 
 /// Least squares by SVD (rank-revealing: a rank-deficient system gets the minimum-norm answer).
+/// Columns are scaled to unit norm first, so a narrow lobe's small column is not mistaken for a
+/// dependent one next to the SH columns, and scaled back after.
 pub fn lstsq(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
-    let svd = a.clone().svd(true, true);
+    let norms: Vec<f64> = a
+        .column_iter()
+        .map(|c| {
+            let n = c.norm();
+            if n > 0.0 && n.is_finite() {
+                n
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let mut scaled = a.clone();
+    for (j, n) in norms.iter().enumerate() {
+        scaled.column_mut(j).scale_mut(1.0 / n);
+    }
+    let svd = scaled.svd(true, true);
     let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
     // Coefficients are stored in f32 or f16: combinations the samples barely determine must not
     // get huge cancelling coefficients, so tiny singular values count as zero.
     let tol = smax * 1e-9;
-    svd.solve(b, tol)
-        .unwrap_or_else(|_| DMatrix::zeros(a.ncols(), b.ncols()))
+    let mut x = svd
+        .solve(b, tol)
+        .unwrap_or_else(|_| DMatrix::zeros(a.ncols(), b.ncols()));
+    for (j, n) in norms.iter().enumerate() {
+        x.row_mut(j).scale_mut(1.0 / n);
+    }
+    x
 }
 
 /// Fits sign·exp(A + Cα²) to the residual over `inside` (the paper's Eqs. 8–11 with the centre
