@@ -1,6 +1,6 @@
 //! The decoder: opens a file once, then answers ρ(ωi, ωo, λ) without allocating.
 
-use crate::angles::{angle_between, deg_from_dir, dir_from_deg, dot, normalize};
+use crate::angles::{angle_between, deg_from_dir, dir_from_deg, dot, mirror_deg, normalize};
 use crate::error::{Error, Result};
 use crate::format::{read_material, Limits};
 use crate::material::{LobeKind, Material, MAX_TERMS};
@@ -11,14 +11,77 @@ const MAX_SH: usize = sh_count(MAX_SH_LEVEL);
 
 /// A validated material plus what makes evaluation cheap. `Send + Sync`: one decoder can serve
 /// every render thread.
+///
+/// An incident direction that is not stored is answered by interpolating the *parameters* of the
+/// neighbouring records (SH coefficients, lobe amplitudes and shapes, the peak's offset from the
+/// mirror direction) and evaluating once, so a specular peak moves with the incident direction
+/// instead of cross-fading between two peaks (`spec/EVALUATION.md`, "Between stored incidences").
 #[derive(Debug, Clone)]
 pub struct Decoder {
     material: Material,
     sh: ShBasis,
-    /// Unit vector of each record's peak direction.
-    peaks: Vec<[f64; 3]>,
-    /// Unit vector of each record's incident direction.
-    incidents: Vec<[f64; 3]>,
+    /// Per record: the peak direction's offset from the mirror direction, (Δθ, Δφ) in degrees.
+    peak_offset: Vec<(f64, f64)>,
+    lattice: Lattice,
+}
+
+/// How stored incidences are arranged, which decides how a query is interpolated.
+#[derive(Debug, Clone)]
+enum Lattice {
+    /// Isotropic files: records in increasing θi, all at φi = 0; linear in θ.
+    Theta(Vec<f64>),
+    /// Every combination of some θ values and some φ values: bilinear, φ wrapping at 360°.
+    Grid {
+        thetas: Vec<f64>,
+        phis: Vec<f64>,
+        /// Record index of (θ_i, φ_j) at i·phis.len() + j.
+        index: Vec<usize>,
+    },
+    /// Scattered incidences: the nearest stored one.
+    Nearest,
+}
+
+/// Up to four records and their weights (summing to 1).
+#[derive(Debug, Clone, Copy)]
+struct Blend {
+    n: usize,
+    rec: [usize; 4],
+    w: [f64; 4],
+}
+
+impl Blend {
+    fn one(r: usize) -> Self {
+        Blend {
+            n: 1,
+            rec: [r, 0, 0, 0],
+            w: [1.0, 0.0, 0.0, 0.0],
+        }
+    }
+    fn push(&mut self, r: usize, w: f64) {
+        if w <= 0.0 {
+            return;
+        }
+        if let Some(i) = self.rec[..self.n].iter().position(|&x| x == r) {
+            self.w[i] += w;
+        } else {
+            self.rec[self.n] = r;
+            self.w[self.n] = w;
+            self.n += 1;
+        }
+    }
+}
+
+/// Index i and fraction t with xs[i] ≤ x ≤ xs[i+1] (x clamped to the range).
+fn bracket(xs: &[f64], x: f64) -> (usize, f64) {
+    if xs.len() == 1 || x <= xs[0] {
+        return (0, 0.0);
+    }
+    let last = xs.len() - 1;
+    if x >= xs[last] {
+        return (last - 1, 1.0);
+    }
+    let i = xs.partition_point(|&v| v <= x) - 1;
+    (i, (x - xs[i]) / (xs[i + 1] - xs[i]))
 }
 
 impl Decoder {
@@ -65,22 +128,124 @@ impl Decoder {
             .validate()
             .map_err(|e| Error::Parameter(format!("invalid material: {e}")))?;
         let sh = ShBasis::new(material.sh_level);
-        let peaks = material
+        let peak_offset = material
             .records
             .iter()
-            .map(|r| dir_from_deg(r.theta_p as f64, r.phi_p as f64))
+            .map(|r| {
+                let (mt, mp) = mirror_deg(r.theta_i as f64, r.phi_i as f64);
+                // A peak at the pole has no azimuth: its offset is in θ alone.
+                let dphi = if r.theta_p == 0.0 {
+                    0.0
+                } else {
+                    crate::angles::phi_delta(r.phi_p as f64, mp)
+                };
+                (r.theta_p as f64 - mt, dphi)
+            })
             .collect();
-        let incidents = material
-            .records
-            .iter()
-            .map(|r| dir_from_deg(r.theta_i as f64, r.phi_i as f64))
-            .collect();
+        let lattice = Self::lattice_of(&material);
         Ok(Decoder {
             material,
             sh,
-            peaks,
-            incidents,
+            peak_offset,
+            lattice,
         })
+    }
+
+    fn lattice_of(m: &Material) -> Lattice {
+        let recs = &m.records;
+        if m.isotropic {
+            return Lattice::Theta(recs.iter().map(|r| r.theta_i as f64).collect());
+        }
+        let mut thetas: Vec<f64> = recs.iter().map(|r| r.theta_i as f64).collect();
+        thetas.dedup(); // records are sorted by (θ, φ)
+        let mut phis: Vec<f64> = recs.iter().map(|r| r.phi_i as f64).collect();
+        phis.sort_by(f64::total_cmp);
+        phis.dedup();
+        if thetas.len() * phis.len() != recs.len() {
+            return Lattice::Nearest;
+        }
+        let mut index = Vec::with_capacity(recs.len());
+        for (i, t) in thetas.iter().enumerate() {
+            for (j, p) in phis.iter().enumerate() {
+                let r = &recs[i * phis.len() + j];
+                if r.theta_i as f64 != *t || r.phi_i as f64 != *p {
+                    return Lattice::Nearest;
+                }
+                index.push(i * phis.len() + j);
+            }
+        }
+        Lattice::Grid {
+            thetas,
+            phis,
+            index,
+        }
+    }
+
+    /// The records to blend for a query incidence (θ, φ in degrees), the θ they are evaluated
+    /// at (clamped to the stored range) and the frame rotation (isotropic files).
+    fn blend(&self, theta: f64, phi: f64) -> (Blend, f64) {
+        match &self.lattice {
+            Lattice::Theta(thetas) => {
+                let (i, t) = bracket(thetas, theta);
+                let mut b = Blend::one(i);
+                if thetas.len() > 1 {
+                    b.w[0] = 1.0 - t;
+                    b.push(i + 1, t);
+                    if b.w[0] <= 0.0 {
+                        b = Blend::one(i + 1);
+                    }
+                }
+                (b, theta.clamp(thetas[0], thetas[thetas.len() - 1]))
+            }
+            Lattice::Grid {
+                thetas,
+                phis,
+                index,
+            } => {
+                let (i, t) = bracket(thetas, theta);
+                let i1 = (i + 1).min(thetas.len() - 1);
+                // φ cells wrap: between the last φ and the first + 360°.
+                let np = phis.len();
+                let p = crate::angles::wrap_phi(phi);
+                let (j0, j1, u) = if np == 1 {
+                    (0, 0, 0.0)
+                } else if p < phis[0] || p >= phis[np - 1] {
+                    let span = phis[0] + 360.0 - phis[np - 1];
+                    let d = (p - phis[np - 1]).rem_euclid(360.0);
+                    (np - 1, 0, d / span)
+                } else {
+                    let (j, u) = bracket(phis, p);
+                    (j, j + 1, u)
+                };
+                let mut b = Blend {
+                    n: 0,
+                    rec: [0; 4],
+                    w: [0.0; 4],
+                };
+                b.push(index[i * np + j0], (1.0 - t) * (1.0 - u));
+                b.push(index[i * np + j1], (1.0 - t) * u);
+                b.push(index[i1 * np + j0], t * (1.0 - u));
+                b.push(index[i1 * np + j1], t * u);
+                if b.n == 0 {
+                    b = Blend::one(index[i * np + j0]);
+                }
+                (b, theta.clamp(thetas[0], thetas[thetas.len() - 1]))
+            }
+            Lattice::Nearest => {
+                let q = dir_from_deg(theta, phi);
+                let mut best = (f64::NEG_INFINITY, 0);
+                for (i, r) in self.material.records.iter().enumerate() {
+                    let c = dot(q, dir_from_deg(r.theta_i as f64, r.phi_i as f64));
+                    if c > best.0 {
+                        best = (c, i);
+                    }
+                }
+                (
+                    Blend::one(best.1),
+                    self.material.records[best.1].theta_i as f64,
+                )
+            }
+        }
     }
 
     pub fn material(&self) -> &Material {
@@ -91,40 +256,11 @@ impl Decoder {
         self.material
     }
 
-    /// The stored record used for an incident direction, and the azimuth (degrees) by which the
-    /// query is rotated first (non-zero only for isotropic files).
-    ///
-    /// This version answers with the *nearest* stored incidence (by angle between incident
-    /// directions; for isotropic files, by θ after rotating the query to φ = 0).
-    pub fn record_for(&self, wi: [f64; 3]) -> (usize, f64) {
-        let recs = &self.material.records;
-        if self.material.isotropic {
-            let (theta, phi) = deg_from_dir(wi);
-            let mut best = 0;
-            for (i, r) in recs.iter().enumerate() {
-                if (r.theta_i as f64 - theta).abs() < (recs[best].theta_i as f64 - theta).abs() {
-                    best = i;
-                }
-            }
-            (best, phi)
-        } else {
-            let mut best = 0;
-            let mut best_dot = f64::NEG_INFINITY;
-            for (i, d) in self.incidents.iter().enumerate() {
-                let c = dot(*d, wi);
-                if c > best_dot {
-                    best_dot = c;
-                    best = i;
-                }
-            }
-            (best, 0.0)
-        }
-    }
-
     /// ρ at unit vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame
     /// (z = normal), for each wavelength in nm, into `out` (1/sr). Directions below the horizon
     /// give 0; so do zero or non-finite vectors. Wavelengths outside the file's spectral interval
-    /// are clamped to it. Writes `min(wavelengths.len(), out.len())` values; never allocates.
+    /// are clamped to it; incident directions outside the stored θ range are clamped to it.
+    /// Writes `min(wavelengths.len(), out.len())` values; never allocates.
     pub fn eval(&self, wi: [f32; 3], wo: [f32; 3], wavelengths: &[f32], out: &mut [f32]) {
         let n = wavelengths.len().min(out.len());
         let out = &mut out[..n];
@@ -137,11 +273,14 @@ impl Decoder {
             out.fill(0.0);
             return;
         }
-        let (index, rotation) = self.record_for(wi);
-        let wo = rotate_z(wo, -rotation);
-        self.eval_record_with(index, wo, wavelengths.iter().map(|&l| l as f64), |i, v| {
-            out[i] = v as f32
-        });
+        let (theta, phi) = deg_from_dir(wi);
+        self.eval_at(
+            theta,
+            phi,
+            wo,
+            wavelengths.iter().map(|&l| l as f64),
+            |i, v| out[i] = v as f32,
+        );
     }
 
     /// Convenience form of [`Decoder::eval`] with angles in degrees.
@@ -158,71 +297,173 @@ impl Decoder {
             out.fill(0.0);
             return;
         }
-        let wi = dir_from_deg(incident.0, incident.1);
-        let (index, rotation) = self.record_for(wi);
-        let wo = dir_from_deg(outgoing.0, outgoing.1 - rotation);
-        self.eval_record_with(index, wo, wavelengths[..n].iter().copied(), |i, v| {
-            out[i] = v
-        });
+        let wo = dir_from_deg(outgoing.0, outgoing.1);
+        self.eval_at(
+            incident.0,
+            incident.1,
+            wo,
+            wavelengths[..n].iter().copied(),
+            |i, v| out[i] = v,
+        );
     }
 
-    /// Evaluates stored record `index` at unit outgoing vector `wo` (already in the record's
-    /// frame), passing (i, ρ(λ_i)) to `sink`.
-    pub fn eval_record_with(
+    /// Evaluates at incidence (θ, φ) in degrees and unit outgoing vector `wo` (local frame),
+    /// passing (i, ρ(λ_i)) to `sink`.
+    fn eval_at(
         &self,
-        index: usize,
+        theta: f64,
+        phi: f64,
         wo: [f64; 3],
         wavelengths: impl Iterator<Item = f64>,
         mut sink: impl FnMut(usize, f64),
     ) {
         let m = &self.material;
-        let r = &m.records[index];
-        // The record's own sizes; its SH functions are the first (L_r+1)² of the file's.
-        let k = r.terms;
-        let p = sh_count(r.sh_level);
+        let (blend, theta) = self.blend(theta, phi);
+        // Isotropic files are stored at φi = 0: rotate the query into that frame.
+        let (phi, wo) = if m.isotropic {
+            (0.0, rotate_z(wo, -phi))
+        } else {
+            (phi, wo)
+        };
+        let wi = dir_from_deg(theta, phi);
+        let recs = &blend.rec[..blend.n];
+        let ws = &blend.w[..blend.n];
+        let k = recs.iter().map(|&r| m.records[r].terms).max().unwrap_or(1);
+        let level = recs
+            .iter()
+            .map(|&r| m.records[r].sh_level)
+            .max()
+            .unwrap_or(0);
         let mut y = [0.0f64; MAX_SH];
-        self.sh.eval(wo, &mut y);
+        self.sh.eval_to_level(level, wo, &mut y);
         let mut c = [0.0f64; MAX_TERMS];
-        for (kk, ck) in c[..k].iter_mut().enumerate() {
-            let row = &r.sh[kk * p..(kk + 1) * p];
-            *ck = row.iter().zip(&y[..p]).map(|(a, b)| *a as f64 * b).sum();
+        for (&r, &w) in recs.iter().zip(ws) {
+            let rec = &m.records[r];
+            let p = sh_count(rec.sh_level);
+            for (kk, ck) in c[..rec.terms].iter_mut().enumerate() {
+                let row = &rec.sh[kk * p..(kk + 1) * p];
+                let v: f64 = row.iter().zip(&y[..p]).map(|(a, b)| *a as f64 * b).sum();
+                *ck += w * v;
+            }
         }
-        for lobe in &r.lobes {
-            match lobe.kind {
-                LobeKind::CosinePower => {
-                    let cos = crate::angles::dot(wo, self.peaks[index]).max(0.0);
-                    let g = cos.powf(lobe.params[0] as f64);
-                    for (kk, ck) in c[..k].iter_mut().enumerate() {
-                        *ck += lobe.amplitude[kk] as f64 * g;
-                    }
-                }
-                LobeKind::AngleGaussian => {
-                    let alpha = angle_between(wo, self.peaks[index]);
-                    let a2 = alpha * alpha;
-                    for (kk, ck) in c[..k].iter_mut().enumerate() {
-                        *ck += lobe.amplitude[kk] as f64 * (-a2 / lobe.params[kk] as f64).exp();
-                    }
-                }
-                LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
-                    let v = crate::lobes::microfacet_variants_with(
-                        &lobe.params,
-                        self.incidents[index],
-                        wo,
-                        lobe.kind == LobeKind::MicrofacetSin2,
-                    );
-                    for (kk, ck) in c[..k].iter_mut().enumerate() {
-                        for (j, vj) in v.iter().enumerate() {
-                            *ck += lobe.amplitude[j * k + kk] as f64 * vj;
-                        }
+        // Lobes: where every blended record has a lobe of the same kind at the same position,
+        // its shape parameters are interpolated and it is evaluated once; otherwise each record's
+        // lobe is evaluated with its own shape and weighted.
+        let max_lobes = recs
+            .iter()
+            .map(|&r| m.records[r].lobes.len())
+            .max()
+            .unwrap_or(0);
+        let (mt, mp) = mirror_deg(theta, phi);
+        for li in 0..max_lobes {
+            let kind = m.records[recs[0]].lobes.get(li).map(|l| l.kind);
+            let shared = kind.is_some()
+                && recs
+                    .iter()
+                    .all(|&r| m.records[r].lobes.get(li).map(|l| l.kind) == kind);
+            if shared {
+                self.add_lobe(&mut c[..k], recs, ws, li, wi, wo, (mt, mp));
+            } else {
+                for (&r, &w) in recs.iter().zip(ws) {
+                    if li < m.records[r].lobes.len() {
+                        self.add_lobe(&mut c[..k], &[r], &[w], li, wi, wo, (mt, mp));
                     }
                 }
             }
         }
         let mut b = [0.0f64; MAX_TERMS];
-        let space = &m.spectral;
         for (i, l) in wavelengths.enumerate() {
-            space.eval(l, &mut b);
+            m.spectral.eval(l, &mut b);
             sink(i, c[..k].iter().zip(&b[..k]).map(|(x, y)| x * y).sum());
+        }
+    }
+
+    /// Adds lobe `li` of the records `recs` (all of the same kind), blended with weights `ws`:
+    /// amplitudes linearly, widths and exponents geometrically, the peak's offset from the
+    /// mirror direction linearly.
+    #[allow(clippy::too_many_arguments)]
+    fn add_lobe(
+        &self,
+        c: &mut [f64],
+        recs: &[usize],
+        ws: &[f64],
+        li: usize,
+        wi: [f64; 3],
+        wo: [f64; 3],
+        mirror: (f64, f64),
+    ) {
+        let m = &self.material;
+        let lobe0 = &m.records[recs[0]].lobes[li];
+        let geo_mean = |param: usize| -> f64 {
+            recs.iter()
+                .zip(ws)
+                .map(|(&r, &w)| w * (m.records[r].lobes[li].params[param] as f64).ln())
+                .sum::<f64>()
+                .exp()
+        };
+        let peak = || {
+            let (dt, dp) = recs.iter().zip(ws).fold((0.0, 0.0), |(a, b), (&r, &w)| {
+                (a + w * self.peak_offset[r].0, b + w * self.peak_offset[r].1)
+            });
+            dir_from_deg(mirror.0 + dt, mirror.1 + dp)
+        };
+        // Σ_r w_r·amplitude_r[index] for the records that have that term.
+        let amp = |variant: usize, kk: usize| -> f64 {
+            recs.iter()
+                .zip(ws)
+                .map(|(&r, &w)| {
+                    let rec = &m.records[r];
+                    if kk < rec.terms {
+                        w * rec.lobes[li].amplitude[variant * rec.terms + kk] as f64
+                    } else {
+                        0.0
+                    }
+                })
+                .sum()
+        };
+        match lobe0.kind {
+            LobeKind::AngleGaussian => {
+                let a2 = angle_between(wo, peak()).powi(2);
+                for (kk, ck) in c.iter_mut().enumerate() {
+                    // Per-term widths: a record without term kk contributes nothing to it.
+                    let (mut lw, mut wsum) = (0.0, 0.0);
+                    for (&r, &w) in recs.iter().zip(ws) {
+                        let rec = &m.records[r];
+                        if kk < rec.terms {
+                            lw += w * (rec.lobes[li].params[kk] as f64).ln();
+                            wsum += w;
+                        }
+                    }
+                    if wsum > 0.0 {
+                        *ck += amp(0, kk) * (-a2 / (lw / wsum).exp()).exp();
+                    }
+                }
+            }
+            LobeKind::CosinePower => {
+                let g = dot(wo, peak()).max(0.0).powf(geo_mean(0));
+                for (kk, ck) in c.iter_mut().enumerate() {
+                    *ck += amp(0, kk) * g;
+                }
+            }
+            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
+                let a: f64 = recs
+                    .iter()
+                    .zip(ws)
+                    .map(|(&r, &w)| w * m.records[r].lobes[li].params[2] as f64)
+                    .sum();
+                let params = [geo_mean(0) as f32, geo_mean(1) as f32, a as f32];
+                let v = crate::lobes::microfacet_variants_with(
+                    &params,
+                    wi,
+                    wo,
+                    lobe0.kind == LobeKind::MicrofacetSin2,
+                );
+                for (kk, ck) in c.iter_mut().enumerate() {
+                    for (j, vj) in v.iter().enumerate() {
+                        *ck += amp(j, kk) * vj;
+                    }
+                }
+            }
         }
     }
 }

@@ -61,13 +61,19 @@ impl ShBasis {
     /// Evaluates every Y_j at the unit vector `d` into `out[..count()]`. `d` must be unit length
     /// (callers normalise); a non-unit vector gives a scaled, meaningless result.
     pub fn eval(&self, d: [f64; 3], out: &mut [f64]) {
+        self.eval_to_level(self.level, d, out)
+    }
+
+    /// [`ShBasis::eval`] for the functions up to `level` (≤ the basis's level) only.
+    pub fn eval_to_level(&self, level: usize, d: [f64; 3], out: &mut [f64]) {
+        let level = level.min(self.level);
         let [x, y, z] = d;
-        let out = &mut out[..self.count()];
+        let out = &mut out[..sh_count(level)];
         // (x + iy)^m, advanced one m at a time.
         let (mut cm, mut sm) = (1.0f64, 0.0f64);
         // Q_m^m = (2m−1)!!, the polynomial part of P_m^m / sin^m θ.
         let mut qmm = 1.0f64;
-        for m in 0..=self.level {
+        for m in 0..=level {
             if m > 0 {
                 let (c, s) = (cm * x - sm * y, cm * y + sm * x);
                 cm = c;
@@ -76,7 +82,7 @@ impl ShBasis {
             }
             let mut q_prev = 0.0f64; // Q_{l-2}^m
             let mut q = qmm; // Q_{l-1}^m, then Q_l^m
-            for l in m..=self.level {
+            for l in m..=level {
                 if l == m + 1 {
                     q_prev = q;
                     q = (2 * m + 1) as f64 * z * qmm;
