@@ -12,6 +12,7 @@
 //! Conventions: `spec/EVALUATION.md`; byte format: `spec/FORMAT.md`.
 
 pub mod angles;
+pub mod capi;
 pub mod decoder;
 pub mod error;
 pub mod format;

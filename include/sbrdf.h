@@ -1,0 +1,44 @@
+/* sbrdf: decoder for compact spectral BRDF files (.sbrdf). C ABI of the Rust crate `sbrdf`.
+ *
+ * Link target/release/libsbrdf.a (with -lpthread -ldl -lm) or libsbrdf.so. Build a lean library
+ * with `cargo build --release --lib --no-default-features`.
+ *
+ * Conventions: wi points from the surface toward the light, wo toward the viewer; both are unit
+ * vectors in the local shading frame with z the surface normal. Values are in 1/sr, wavelengths
+ * in nm. Below the horizon (wi.z < 0 or wo.z < 0) the value is 0. A handle is immutable once
+ * open: it may be shared by any number of threads. No function lets a Rust panic cross into C.
+ * Kept in sync with src/capi.rs by tests/c_api.rs.
+ */
+#ifndef SBRDF_H
+#define SBRDF_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct sbrdf_t sbrdf_t;
+
+#define SBRDF_OK 0
+#define SBRDF_ERR_NULL 1
+#define SBRDF_ERR_IO 2
+#define SBRDF_ERR_FORMAT 3
+#define SBRDF_ERR_UNSUPPORTED 4
+#define SBRDF_ERR_LIMITS 5
+#define SBRDF_ERR_ARGUMENT 6
+#define SBRDF_ERR_INTERNAL 7
+
+int  sbrdf_open_file(const char *path, sbrdf_t **out);        /* 0 on success, else an error code */
+int  sbrdf_open_memory(const uint8_t *data, size_t len, sbrdf_t **out);
+int  sbrdf_eval(const sbrdf_t *b, const float wi[3], const float wo[3],
+                const float *wavelengths_nm, size_t count, float *out);
+void sbrdf_close(sbrdf_t *b);
+const char *sbrdf_error_message(int code);                    /* static string, never NULL */
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* SBRDF_H */

@@ -1,0 +1,141 @@
+//! The C ABI: one header (`include/sbrdf.h`) and `libsbrdf.a` / `libsbrdf.so`.
+//!
+//! Every function catches panics, so none crosses into C; pointers are checked for null; a
+//! decoder is immutable after opening, so one handle may be used from many threads at once.
+
+#![allow(non_camel_case_types, clippy::missing_safety_doc)]
+
+use crate::{Decoder, Error};
+use std::ffi::{c_char, c_int, CStr};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// An open material (opaque to C).
+pub struct sbrdf_t(Decoder);
+
+pub const SBRDF_OK: c_int = 0;
+pub const SBRDF_ERR_NULL: c_int = 1;
+pub const SBRDF_ERR_IO: c_int = 2;
+pub const SBRDF_ERR_FORMAT: c_int = 3;
+pub const SBRDF_ERR_UNSUPPORTED: c_int = 4;
+pub const SBRDF_ERR_LIMITS: c_int = 5;
+pub const SBRDF_ERR_ARGUMENT: c_int = 6;
+pub const SBRDF_ERR_INTERNAL: c_int = 7;
+
+fn code_of(e: &Error) -> c_int {
+    match e {
+        Error::Io { .. } => SBRDF_ERR_IO,
+        Error::Format { .. } => SBRDF_ERR_FORMAT,
+        Error::Unsupported { .. } => SBRDF_ERR_UNSUPPORTED,
+        Error::LimitsExceeded(_) => SBRDF_ERR_LIMITS,
+        Error::Parameter(_) | Error::Input(_) => SBRDF_ERR_ARGUMENT,
+    }
+}
+
+fn guarded(f: impl FnOnce() -> c_int) -> c_int {
+    catch_unwind(AssertUnwindSafe(f)).unwrap_or(SBRDF_ERR_INTERNAL)
+}
+
+unsafe fn finish_open(r: crate::Result<Decoder>, out: *mut *mut sbrdf_t) -> c_int {
+    match r {
+        Ok(d) => {
+            *out = Box::into_raw(Box::new(sbrdf_t(d)));
+            SBRDF_OK
+        }
+        Err(e) => code_of(&e),
+    }
+}
+
+/// Opens a file. On success stores a handle in `*out` (free it with `sbrdf_close`).
+#[no_mangle]
+pub unsafe extern "C" fn sbrdf_open_file(path: *const c_char, out: *mut *mut sbrdf_t) -> c_int {
+    guarded(|| {
+        if path.is_null() || out.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        *out = std::ptr::null_mut();
+        let Ok(p) = CStr::from_ptr(path).to_str() else {
+            return SBRDF_ERR_ARGUMENT;
+        };
+        finish_open(Decoder::open(p), out)
+    })
+}
+
+/// Opens a file held in memory (the bytes are copied as needed; the buffer may be freed after).
+#[no_mangle]
+pub unsafe extern "C" fn sbrdf_open_memory(
+    data: *const u8,
+    len: usize,
+    out: *mut *mut sbrdf_t,
+) -> c_int {
+    guarded(|| {
+        if data.is_null() || out.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        *out = std::ptr::null_mut();
+        let bytes = std::slice::from_raw_parts(data, len);
+        finish_open(Decoder::from_bytes(bytes), out)
+    })
+}
+
+/// ρ(wi, wo, λ) in 1/sr for `count` wavelengths (nm) into `out`. `wi` points toward the light,
+/// `wo` toward the viewer, both unit vectors in the local frame with z the normal. Below the
+/// horizon the value is 0. Allocates nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sbrdf_eval(
+    b: *const sbrdf_t,
+    wi: *const f32,
+    wo: *const f32,
+    wavelengths_nm: *const f32,
+    count: usize,
+    out: *mut f32,
+) -> c_int {
+    guarded(|| {
+        if b.is_null() || wi.is_null() || wo.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        if count == 0 {
+            return SBRDF_OK;
+        }
+        if wavelengths_nm.is_null() || out.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        let wi = [*wi, *wi.add(1), *wi.add(2)];
+        let wo = [*wo, *wo.add(1), *wo.add(2)];
+        if !wi.iter().chain(&wo).all(|v| v.is_finite()) {
+            return SBRDF_ERR_ARGUMENT;
+        }
+        let wl = std::slice::from_raw_parts(wavelengths_nm, count);
+        let out = std::slice::from_raw_parts_mut(out, count);
+        (*b).0.eval(wi, wo, wl, out);
+        SBRDF_OK
+    })
+}
+
+/// Frees a handle; null is allowed.
+#[no_mangle]
+pub unsafe extern "C" fn sbrdf_close(b: *mut sbrdf_t) {
+    if !b.is_null() {
+        let _ = catch_unwind(AssertUnwindSafe(|| drop(Box::from_raw(b))));
+    }
+}
+
+/// A static, never-NULL description of an error code.
+#[no_mangle]
+pub extern "C" fn sbrdf_error_message(code: c_int) -> *const c_char {
+    let s: &'static [u8] = match code {
+        SBRDF_OK => b"success\0",
+        SBRDF_ERR_NULL => b"a required pointer argument is NULL\0",
+        SBRDF_ERR_IO => b"the file could not be read\0",
+        SBRDF_ERR_FORMAT => b"the data is not a valid sbrdf file (damaged or truncated)\0",
+        SBRDF_ERR_UNSUPPORTED => {
+            b"the file needs a newer sbrdf (newer version or unknown feature)\0"
+        }
+        SBRDF_ERR_LIMITS => b"the file exceeds the decoder's size limits\0",
+        SBRDF_ERR_ARGUMENT => {
+            b"an argument is invalid (a non-finite vector, a path that is not UTF-8)\0"
+        }
+        SBRDF_ERR_INTERNAL => b"internal error in sbrdf (please report it)\0",
+        _ => b"unknown sbrdf error code\0",
+    };
+    s.as_ptr() as *const c_char
+}

@@ -1,0 +1,163 @@
+//! The C ABI called as C calls it, and include/sbrdf.h kept in sync with src/capi.rs.
+
+use sbrdf::capi::*;
+use std::ffi::{CStr, CString};
+use std::path::Path;
+
+fn golden(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("samples/golden")
+        .join(name)
+}
+
+#[test]
+fn header_declares_exactly_the_exported_api() {
+    let h = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("include/sbrdf.h"))
+        .unwrap();
+    let squash = |s: &str| s.split_whitespace().collect::<Vec<_>>().join(" ");
+    let header = squash(&h);
+    for proto in [
+        "typedef struct sbrdf_t sbrdf_t;",
+        "int sbrdf_open_file(const char *path, sbrdf_t **out);",
+        "int sbrdf_open_memory(const uint8_t *data, size_t len, sbrdf_t **out);",
+        "int sbrdf_eval(const sbrdf_t *b, const float wi[3], const float wo[3], const float *wavelengths_nm, size_t count, float *out);",
+        "void sbrdf_close(sbrdf_t *b);",
+        "const char *sbrdf_error_message(int code);",
+    ] {
+        assert!(header.contains(&squash(proto)), "header lacks: {proto}");
+    }
+    for (name, value) in [
+        ("SBRDF_OK", SBRDF_OK),
+        ("SBRDF_ERR_NULL", SBRDF_ERR_NULL),
+        ("SBRDF_ERR_IO", SBRDF_ERR_IO),
+        ("SBRDF_ERR_FORMAT", SBRDF_ERR_FORMAT),
+        ("SBRDF_ERR_UNSUPPORTED", SBRDF_ERR_UNSUPPORTED),
+        ("SBRDF_ERR_LIMITS", SBRDF_ERR_LIMITS),
+        ("SBRDF_ERR_ARGUMENT", SBRDF_ERR_ARGUMENT),
+        ("SBRDF_ERR_INTERNAL", SBRDF_ERR_INTERNAL),
+    ] {
+        assert!(
+            header.contains(&format!("#define {name} {value}")),
+            "header lacks {name} = {value}"
+        );
+    }
+    // Every function the header names is exported by the library source.
+    let src =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/capi.rs")).unwrap();
+    for f in [
+        "sbrdf_open_file",
+        "sbrdf_open_memory",
+        "sbrdf_eval",
+        "sbrdf_close",
+        "sbrdf_error_message",
+    ] {
+        assert!(
+            src.contains(&format!("extern \"C\" fn {f}(")),
+            "{f} not exported"
+        );
+    }
+}
+
+#[test]
+fn c_calls_agree_with_the_rust_decoder_and_refuse_bad_input() {
+    let path = golden("ggx_3inc_default.sbrdf");
+    let c_path = CString::new(path.to_str().unwrap()).unwrap();
+    let mut h: *mut sbrdf_t = std::ptr::null_mut();
+    assert_eq!(
+        unsafe { sbrdf_open_file(c_path.as_ptr(), &mut h) },
+        SBRDF_OK
+    );
+    assert!(!h.is_null());
+    let dec = sbrdf::Decoder::open(&path).unwrap();
+    let wl = [420.0f32, 550.0, 690.0];
+    for (wi, wo) in [
+        ([0.0f32, 0.0, 1.0], [0.3f32, 0.1, 0.948_683_3]),
+        ([0.5, 0.0, 0.866_025_4], [-0.5, 0.0, 0.866_025_4]),
+        ([0.2, 0.6, 0.774_596_7], [-0.7, 0.1, 0.707_106_8]),
+    ] {
+        let (mut a, mut b) = ([0.0f32; 3], [0.0f32; 3]);
+        assert_eq!(
+            unsafe { sbrdf_eval(h, wi.as_ptr(), wo.as_ptr(), wl.as_ptr(), 3, a.as_mut_ptr()) },
+            SBRDF_OK
+        );
+        dec.eval(wi, wo, &wl, &mut b);
+        for k in 0..3 {
+            assert!(
+                (a[k] - b[k]).abs() <= 1e-6 * b[k].abs(),
+                "{} vs {}",
+                a[k],
+                b[k]
+            );
+        }
+    }
+    // Bad arguments: error codes, never a crash.
+    let mut out = [0.0f32; 3];
+    let wi = [0.0f32, 0.0, 1.0];
+    let nan = [f32::NAN, 0.0, 1.0];
+    unsafe {
+        assert_eq!(
+            sbrdf_eval(
+                std::ptr::null(),
+                wi.as_ptr(),
+                wi.as_ptr(),
+                wl.as_ptr(),
+                3,
+                out.as_mut_ptr()
+            ),
+            SBRDF_ERR_NULL
+        );
+        assert_eq!(
+            sbrdf_eval(
+                h,
+                nan.as_ptr(),
+                wi.as_ptr(),
+                wl.as_ptr(),
+                3,
+                out.as_mut_ptr()
+            ),
+            SBRDF_ERR_ARGUMENT
+        );
+        assert_eq!(
+            sbrdf_eval(
+                h,
+                wi.as_ptr(),
+                wi.as_ptr(),
+                std::ptr::null(),
+                3,
+                out.as_mut_ptr()
+            ),
+            SBRDF_ERR_NULL
+        );
+        assert_eq!(
+            sbrdf_eval(
+                h,
+                wi.as_ptr(),
+                wi.as_ptr(),
+                std::ptr::null(),
+                0,
+                std::ptr::null_mut()
+            ),
+            SBRDF_OK
+        );
+        sbrdf_close(h);
+        sbrdf_close(std::ptr::null_mut());
+    }
+    let junk: Vec<u8> = (0..200u32).map(|i| (i * 37 + 11) as u8).collect();
+    let mut j: *mut sbrdf_t = std::ptr::null_mut();
+    let rc = unsafe { sbrdf_open_memory(junk.as_ptr(), junk.len(), &mut j) };
+    assert_eq!(rc, SBRDF_ERR_FORMAT);
+    assert!(j.is_null());
+    let missing = CString::new("/no/such/file.sbrdf").unwrap();
+    assert_eq!(
+        unsafe { sbrdf_open_file(missing.as_ptr(), &mut j) },
+        SBRDF_ERR_IO
+    );
+    assert_eq!(
+        unsafe { sbrdf_open_file(std::ptr::null(), &mut j) },
+        SBRDF_ERR_NULL
+    );
+    for code in -1..10 {
+        let msg = unsafe { CStr::from_ptr(sbrdf_error_message(code)) };
+        assert!(!msg.to_bytes().is_empty());
+    }
+}
