@@ -58,7 +58,66 @@ sbrdf decode m.sbrdf -o back.csv        (at the sample positions the encoder saw
         after_help = "Example:\n  sbrdf eval m.sbrdf --incident 15,0 --outgoing 15,180 --wavelengths 450,550\n\n\
 Directions below the horizon (θ > 90) give 0. An incident direction that is not stored is \
 answered by interpolating the neighbouring records' parameters (isotropic files: rotated to \
-φi = 0 first); outside the stored θi range, the nearest stored θi is used.")]
+φi = 0 first); outside the stored θi range, the nearest stored θi is used."
+    )]
+    Eval(EvalArgs),
+    /// Describe a file: its settings, records and metadata.
+    Info(InfoArgs),
+    /// Check every CRC and the whole structure of a file.
+    Verify(VerifyArgs),
+    /// Generate test materials.
+    #[command(subcommand)]
+    Synth(SynthCommand),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum BasisArg {
+    /// The paper's periodic Fourier series (a0, a1, b1, a2, b2, …).
+    Fourier,
+    /// Cosine series (DCT): no wrap-around between the ends of the spectrum.
+    Cosine,
+    /// Derived from the data (leading singular vectors, stored in the file); --terms is the rank.
+    Data,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PeakArg {
+    /// SH background + Gaussian peak (the paper's method).
+    Paper,
+    /// SH only (the paper's baseline).
+    None,
+    /// SH background and lobe amplitudes fitted together, lobe width searched (no critical angle).
+    Joint,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum LobeArg {
+    /// Phong's lobe: a power of the cosine of the angle from the peak direction.
+    CosinePower,
+    /// A Gaussian in the angle from the peak direction.
+    Gaussian,
+    /// A microfacet lobe in the half vector (1 − cos θh), with shadowing and Fresnel variants.
+    Microfacet,
+    /// The same in sin²θh (GGX-shaped).
+    MicrofacetSin2,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PrecisionArg {
+    F32,
+    F16,
+}
+
+#[derive(Args)]
+struct EncodeArgs {
+    /// Input CSV files (long or wide layout); several are merged.
+    #[arg(required = true)]
+    inputs: Vec<PathBuf>,
+    /// Output .sbrdf file (written atomically).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Spectral basis.
+    #[arg(long, value_enum, default_value = "data")]
     basis: BasisArg,
     /// Number of spectral terms K (13 = a0, a1..a6, b1..b6 for fourier) [default: 13 for
     /// fourier and cosine; for data the smallest rank leaving ≤ half the error budget, ≤ 8].
