@@ -22,7 +22,16 @@ pub struct Decoder {
     sh: ShBasis,
     /// Per record: the peak direction's offset from the mirror direction, (Δθ, Δφ) in degrees.
     peak_offset: Vec<(f64, f64)>,
+    /// Per record: the unit peak vector (isotropic files blend these directly, which needs no
+    /// trigonometry: all their records share the φ = 0 frame).
+    peaks: Vec<[f64; 3]>,
+    /// Natural logarithms of every lobe parameter, [record][lobe][parameter]: widths, exponents
+    /// and microfacet b, c are interpolated geometrically, and taking logs once here keeps
+    /// `ln` out of the per-query path.
+    ln_params: Vec<Vec<Vec<f64>>>,
     lattice: Lattice,
+    /// SH level ≤ 6 and ≤ 16 terms: evaluation can use small scratch arrays.
+    small: bool,
 }
 
 /// How stored incidences are arranged, which decides how a query is interpolated.
@@ -143,11 +152,30 @@ impl Decoder {
             })
             .collect();
         let lattice = Self::lattice_of(&material);
+        let small = material.sh_level <= 6 && material.spectral.terms <= 16;
+        let peaks = material
+            .records
+            .iter()
+            .map(|r| dir_from_deg(r.theta_p as f64, r.phi_p as f64))
+            .collect();
+        let ln_params = material
+            .records
+            .iter()
+            .map(|r| {
+                r.lobes
+                    .iter()
+                    .map(|l| l.params.iter().map(|&p| (p as f64).ln()).collect())
+                    .collect()
+            })
+            .collect();
         Ok(Decoder {
             material,
             sh,
             peak_offset,
+            peaks,
+            ln_params,
             lattice,
+            small,
         })
     }
 
@@ -273,14 +301,23 @@ impl Decoder {
             out.fill(0.0);
             return;
         }
-        let (theta, phi) = deg_from_dir(wi);
-        self.eval_at(
-            theta,
-            phi,
-            wo,
-            wavelengths.iter().map(|&l| l as f64),
-            |i, v| out[i] = v as f32,
-        );
+        let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
+        let theta = r.atan2(wi[2]).to_degrees();
+        let wl = wavelengths.iter().map(|&l| l as f64);
+        let sink = |i: usize, v: f64| out[i] = v as f32;
+        if self.material.isotropic {
+            // Rotate into the stored frame (φi = 0) with the azimuth's cosine and sine, no trig.
+            let (c, s) = if r > 0.0 {
+                (wi[0] / r, wi[1] / r)
+            } else {
+                (1.0, 0.0)
+            };
+            let wo = [c * wo[0] + s * wo[1], -s * wo[0] + c * wo[1], wo[2]];
+            self.eval_frame(theta, 0.0, Some([r, 0.0, wi[2]]), wo, wl, sink);
+        } else {
+            let (_, phi) = deg_from_dir(wi);
+            self.eval_frame(theta, phi, Some(wi), wo, wl, sink);
+        }
     }
 
     /// Convenience form of [`Decoder::eval`] with angles in degrees.
@@ -297,35 +334,56 @@ impl Decoder {
             out.fill(0.0);
             return;
         }
-        let wo = dir_from_deg(outgoing.0, outgoing.1);
-        self.eval_at(
-            incident.0,
-            incident.1,
-            wo,
-            wavelengths[..n].iter().copied(),
-            |i, v| out[i] = v,
-        );
+        let wl = wavelengths[..n].iter().copied();
+        let sink = |i: usize, v: f64| out[i] = v;
+        if self.material.isotropic {
+            let wo = dir_from_deg(outgoing.0, outgoing.1 - incident.1);
+            self.eval_frame(incident.0, 0.0, None, wo, wl, sink);
+        } else {
+            let wo = dir_from_deg(outgoing.0, outgoing.1);
+            self.eval_frame(incident.0, incident.1, None, wo, wl, sink);
+        }
     }
 
-    /// Evaluates at incidence (θ, φ) in degrees and unit outgoing vector `wo` (local frame),
-    /// passing (i, ρ(λ_i)) to `sink`.
-    fn eval_at(
+    /// Evaluates at incidence (θ, φ) in degrees — already rotated to φ = 0 for isotropic files,
+    /// as is the unit outgoing vector `wo` — passing (i, ρ(λ_i)) to `sink`. `wi`, when given,
+    /// is the unit incident vector of (θ, φ) (it saves the trigonometry).
+    fn eval_frame(
         &self,
         theta: f64,
         phi: f64,
+        wi: Option<[f64; 3]>,
+        wo: [f64; 3],
+        wavelengths: impl Iterator<Item = f64>,
+        sink: impl FnMut(usize, f64),
+    ) {
+        // Scratch arrays live on the stack; zeroing the format's maxima (441 SH values, 256
+        // terms) would cost more than the evaluation, so files within SH level 6 and 16 terms
+        // (every file the encoder writes by default) use small ones.
+        if self.small {
+            self.eval_sized::<{ sh_count(6) }, 16>(theta, phi, wi, wo, wavelengths, sink)
+        } else {
+            self.eval_sized::<MAX_SH, MAX_TERMS>(theta, phi, wi, wo, wavelengths, sink)
+        }
+    }
+
+    fn eval_sized<const NSH: usize, const NT: usize>(
+        &self,
+        theta: f64,
+        phi: f64,
+        wi: Option<[f64; 3]>,
         wo: [f64; 3],
         wavelengths: impl Iterator<Item = f64>,
         mut sink: impl FnMut(usize, f64),
     ) {
         let m = &self.material;
-        let (blend, theta) = self.blend(theta, phi);
-        // Isotropic files are stored at φi = 0: rotate the query into that frame.
-        let (phi, wo) = if m.isotropic {
-            (0.0, rotate_z(wo, -phi))
-        } else {
-            (phi, wo)
+        let (blend, clamped) = self.blend(theta, phi);
+        // Outside the stored θ range the nearest stored θ is used, incident vector included.
+        let wi = match wi {
+            Some(v) if clamped == theta => v,
+            _ => dir_from_deg(clamped, phi),
         };
-        let wi = dir_from_deg(theta, phi);
+        let theta = clamped;
         let recs = &blend.rec[..blend.n];
         let ws = &blend.w[..blend.n];
         let k = recs.iter().map(|&r| m.records[r].terms).max().unwrap_or(1);
@@ -334,9 +392,9 @@ impl Decoder {
             .map(|&r| m.records[r].sh_level)
             .max()
             .unwrap_or(0);
-        let mut y = [0.0f64; MAX_SH];
+        let mut y = [0.0f64; NSH];
         self.sh.eval_to_level(level, wo, &mut y);
-        let mut c = [0.0f64; MAX_TERMS];
+        let mut c = [0.0f64; NT];
         for (&r, &w) in recs.iter().zip(ws) {
             let rec = &m.records[r];
             let p = sh_count(rec.sh_level);
@@ -371,8 +429,12 @@ impl Decoder {
                 }
             }
         }
-        let mut b = [0.0f64; MAX_TERMS];
+        let mut b = [0.0f64; NT];
         for (i, l) in wavelengths.enumerate() {
+            if !l.is_finite() {
+                sink(i, 0.0); // documented: a non-finite wavelength gives 0
+                continue;
+            }
             m.spectral.eval(l, &mut b);
             sink(i, c[..k].iter().zip(&b[..k]).map(|(x, y)| x * y).sum());
         }
@@ -395,13 +457,32 @@ impl Decoder {
         let m = &self.material;
         let lobe0 = &m.records[recs[0]].lobes[li];
         let geo_mean = |param: usize| -> f64 {
+            if recs.len() == 1 {
+                return m.records[recs[0]].lobes[li].params[param] as f64;
+            }
             recs.iter()
                 .zip(ws)
-                .map(|(&r, &w)| w * (m.records[r].lobes[li].params[param] as f64).ln())
+                .map(|(&r, &w)| w * self.ln_params[r][li][param])
                 .sum::<f64>()
                 .exp()
         };
         let peak = || {
+            if recs.len() == 1 {
+                return self.peaks[recs[0]];
+            }
+            if m.isotropic {
+                // Records 1D in θ, one frame: the normalised weighted mean of their peaks.
+                let mut v = [0.0; 3];
+                for (&r, &w) in recs.iter().zip(ws) {
+                    for (vi, pi) in v.iter_mut().zip(self.peaks[r]) {
+                        *vi += w * pi;
+                    }
+                }
+                if let Some(u) = normalize(v) {
+                    return u;
+                }
+            }
+            // Records at different azimuths: blend the offsets from each one's mirror direction.
             let (dt, dp) = recs.iter().zip(ws).fold((0.0, 0.0), |(a, b), (&r, &w)| {
                 (a + w * self.peak_offset[r].0, b + w * self.peak_offset[r].1)
             });
@@ -428,9 +509,8 @@ impl Decoder {
                     // Per-term widths: a record without term kk contributes nothing to it.
                     let (mut lw, mut wsum) = (0.0, 0.0);
                     for (&r, &w) in recs.iter().zip(ws) {
-                        let rec = &m.records[r];
-                        if kk < rec.terms {
-                            lw += w * (rec.lobes[li].params[kk] as f64).ln();
+                        if kk < m.records[r].terms {
+                            lw += w * self.ln_params[r][li][kk];
                             wsum += w;
                         }
                     }
@@ -440,7 +520,9 @@ impl Decoder {
                 }
             }
             LobeKind::CosinePower => {
-                let g = dot(wo, peak()).max(0.0).powf(geo_mean(0));
+                // The cosine is capped at 1: rounding can exceed it, and a large exponent would
+                // turn 1 + ε into infinity.
+                let g = dot(wo, peak()).clamp(0.0, 1.0).powf(geo_mean(0));
                 for (kk, ck) in c.iter_mut().enumerate() {
                     *ck += amp(0, kk) * g;
                 }
@@ -466,12 +548,4 @@ impl Decoder {
             }
         }
     }
-}
-
-fn rotate_z(v: [f64; 3], deg: f64) -> [f64; 3] {
-    if deg == 0.0 {
-        return v;
-    }
-    let (s, c) = deg.to_radians().sin_cos();
-    [c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]]
 }

@@ -302,8 +302,8 @@ pub fn derive_basis(set: &SampleSet, rank: usize, precision: Precision) -> Basis
     });
     let mut values = Vec::with_capacity(rank * w);
     for k in 0..rank {
-        // A rank above the data's gives zero singular values; their vectors are still an
-        // orthonormal completion, which keeps the basis independent.
+        // More terms than the SVD returns (a rank above min(rows, W)): a unit vector stands in;
+        // the fit refuses the basis if that leaves it dependent.
         let row: Vec<f64> = match order.get(k) {
             Some(&i) => (0..w).map(|j| v_t[(i, j)]).collect(),
             None => (0..w).map(|j| if j == k { 1.0 } else { 0.0 }).collect(),

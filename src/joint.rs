@@ -348,12 +348,12 @@ impl LevelFit {
     /// The record with the first `r` terms, in f32.
     fn record(&self, inc: &Incidence, s: &IncidentSamples, r: usize) -> IncidentRecord {
         let p = sh_count(self.level);
-        // Coefficients on the first r basis functions: X = Xq·R⁻ᵀ restricted to its leading
-        // r×r block (R is upper triangular, so its inverse's leading block is the inverse of
-        // its leading block).
+        // Coefficients on the first r basis functions: ρ̂ = M·Xq·Qᵀ = M·X·Sᵀ = M·X·Rᵀ·Qᵀ, so
+        // X = Xq·R⁻ᵀ, restricted to the leading r×r block (R⁻ᵀ is lower triangular, so its
+        // leading block is the inverse transpose of R's leading block).
         let xq = self.xq.columns(0, r);
         let rit = inc.r_inv_t.view((0, 0), (r, r));
-        let x = xq * rit.transpose();
+        let x = xq * rit;
         let mut sh = Vec::with_capacity(r * p);
         for kk in 0..r {
             for j in 0..p {

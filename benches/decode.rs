@@ -1,0 +1,177 @@
+//! Decoder speed against the simplest alternative a renderer would use: a dense raw table of the
+//! same samples with bilinear lookup in (θo, φo), linear in λ, nearest stored incidence.
+//! Per query, for 1, 4 and 31 wavelengths, on a 9-incidence Phong material and a 7-incidence
+//! GGX material; plus the time to open a file. Both are measured in the same run.
+
+use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use sbrdf::encoder::{encode, EncodeOptions};
+use sbrdf::samples::SampleSet;
+use sbrdf::synth::{paper_grid, sample_material, Ggx, Phong, SpectrumTable};
+use sbrdf::Decoder;
+
+/// The raw-table baseline: values[inc][iθ][iφ][w] on the paper's grid.
+struct RawTable {
+    thetas: Vec<f64>,
+    wavelengths: Vec<f32>,
+    values: Vec<f32>,
+}
+
+const NT: usize = 18;
+const NP: usize = 72;
+
+impl RawTable {
+    fn new(set: &SampleSet) -> Self {
+        let mut values = Vec::new();
+        for s in &set.incidences {
+            values.extend(s.values.iter().map(|&v| v as f32));
+        }
+        RawTable {
+            thetas: set.incidences.iter().map(|s| s.theta_i).collect(),
+            wavelengths: set.wavelengths.iter().map(|&w| w as f32).collect(),
+            values,
+        }
+    }
+
+    fn eval(&self, wi: [f32; 3], wo: [f32; 3], wl: &[f32], out: &mut [f32]) {
+        let ti = wi[2].clamp(-1.0, 1.0).acos().to_degrees() as f64;
+        let inc = self
+            .thetas
+            .iter()
+            .enumerate()
+            .min_by(|a, b| (a.1 - ti).abs().total_cmp(&(b.1 - ti).abs()))
+            .unwrap()
+            .0;
+        // Rotate wo so the incident azimuth is 0 (isotropic), then grid coordinates.
+        let phi_i = wi[1].atan2(wi[0]);
+        let phi_o = wo[1].atan2(wo[0]) - phi_i;
+        let to = wo[2].clamp(-1.0, 1.0).acos().to_degrees();
+        let po = phi_o.to_degrees().rem_euclid(360.0);
+        let ft = ((to - 2.5) / 5.0).clamp(0.0, (NT - 1) as f32);
+        let it = (ft as usize).min(NT - 2);
+        let t = ft - it as f32;
+        let fp = po / 5.0;
+        let ip = (fp as usize) % NP;
+        let u = fp - fp.floor();
+        let ip1 = (ip + 1) % NP;
+        let nw = self.wavelengths.len();
+        let base = inc * NT * NP * nw;
+        let at = |a: usize, b: usize, w: usize| self.values[base + (a * NP + b) * nw + w];
+        for (o, &l) in out.iter_mut().zip(wl) {
+            let fw = ((l - self.wavelengths[0]) / (self.wavelengths[1] - self.wavelengths[0]))
+                .clamp(0.0, (nw - 1) as f32);
+            let iw = (fw as usize).min(nw - 2);
+            let s = fw - iw as f32;
+            let bil = |w: usize| {
+                (1.0 - t) * ((1.0 - u) * at(it, ip, w) + u * at(it, ip1, w))
+                    + t * ((1.0 - u) * at(it + 1, ip, w) + u * at(it + 1, ip1, w))
+            };
+            *o = (1.0 - s) * bil(iw) + s * bil(iw + 1);
+        }
+    }
+}
+
+fn materials() -> Vec<(&'static str, SampleSet)> {
+    let t = SpectrumTable::colorchecker();
+    let wl: Vec<f64> = (0..31).map(|i| 400.0 + 10.0 * i as f64).collect();
+    let grid = paper_grid(5.0, 5.0);
+    let phong = Phong {
+        diffuse: t.sample(t.find("green").unwrap(), &wl).unwrap(),
+        specular: t.sample(t.find("white").unwrap(), &wl).unwrap(),
+        kd: 1.0,
+        ks: 15.0,
+        n: 50.0,
+    };
+    let nine: Vec<(f64, f64)> = (0..9).map(|i| (10.0 * i as f64, 0.0)).collect();
+    let ggx = Ggx {
+        alpha: 0.2,
+        kd: 1.0,
+        diffuse: t.sample(t.find("blue").unwrap(), &wl).unwrap(),
+        f0: t
+            .sample(t.find("yellow").unwrap(), &wl)
+            .unwrap()
+            .iter()
+            .map(|v| 0.04 + 0.5 * v)
+            .collect(),
+    };
+    let seven: Vec<(f64, f64)> = (0..7).map(|i| (12.0 * i as f64, 0.0)).collect();
+    vec![
+        (
+            "phong9",
+            sample_material(&wl, &nine, &grid, |i, o, w| phong.value(i, o, w)),
+        ),
+        (
+            "ggx7",
+            sample_material(&wl, &seven, &grid, |i, o, w| ggx.value(i, o, w)),
+        ),
+    ]
+}
+
+/// Deterministic query directions over the upper hemisphere.
+fn queries(n: usize) -> Vec<([f32; 3], [f32; 3])> {
+    let mut state = 0x2545F4914F6CDD1Du64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f32 / (1u64 << 53) as f32
+    };
+    let mut dir = |next: &mut dyn FnMut() -> f32| {
+        let z: f32 = 0.05 + 0.95 * next();
+        let p = 2.0 * std::f32::consts::PI * next();
+        let r = (1.0 - z * z).sqrt();
+        [r * p.cos(), r * p.sin(), z]
+    };
+    (0..n).map(|_| (dir(&mut next), dir(&mut next))).collect()
+}
+
+fn bench_decode(c: &mut Criterion) {
+    let qs = queries(4096);
+    for (name, set) in materials() {
+        let enc = encode(&set, &EncodeOptions::default()).unwrap();
+        let bytes = sbrdf::write_material(&enc.material).unwrap();
+        let dec = Decoder::from_bytes(&bytes).unwrap();
+        let raw = RawTable::new(&set);
+        let mut g = c.benchmark_group(format!("eval_{name}"));
+        g.throughput(Throughput::Elements(qs.len() as u64));
+        for count in [1usize, 4, 31] {
+            let wl: Vec<f32> = (0..count)
+                .map(|i| {
+                    if count == 1 {
+                        550.0
+                    } else {
+                        400.0 + 300.0 * i as f32 / (count - 1) as f32
+                    }
+                })
+                .collect();
+            let mut out = vec![0.0f32; count];
+            g.bench_with_input(BenchmarkId::new("sbrdf", count), &count, |b, _| {
+                b.iter(|| {
+                    for (wi, wo) in &qs {
+                        dec.eval(*wi, *wo, &wl, &mut out);
+                        black_box(&out);
+                    }
+                })
+            });
+            g.bench_with_input(BenchmarkId::new("raw_table", count), &count, |b, _| {
+                b.iter(|| {
+                    for (wi, wo) in &qs {
+                        raw.eval(*wi, *wo, &wl, &mut out);
+                        black_box(&out);
+                    }
+                })
+            });
+        }
+        g.finish();
+        eprintln!(
+            "{name}: file {} bytes, raw table {} bytes",
+            bytes.len(),
+            raw.values.len() * 4
+        );
+        c.bench_function(&format!("open_{name}"), |b| {
+            b.iter(|| Decoder::from_bytes(black_box(&bytes)).unwrap())
+        });
+    }
+}
+
+criterion_group!(benches, bench_decode);
+criterion_main!(benches);
