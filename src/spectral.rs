@@ -167,7 +167,7 @@ impl SpectralSpace {
                 let w = n.len();
                 // Linear interpolation between nodes, constant beyond the ends.
                 // NaN is treated as below the range (the decoder maps it to 0 before this).
-                let (i, f) = if !(lambda > n[0]) || w == 1 {
+                let (i, f) = if lambda.is_nan() || lambda <= n[0] || w == 1 {
                     (0, 0.0)
                 } else if lambda >= n[w - 1] {
                     (w - 2, 1.0)
