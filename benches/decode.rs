@@ -115,7 +115,7 @@ fn queries(n: usize) -> Vec<([f32; 3], [f32; 3])> {
         state ^= state << 17;
         (state >> 11) as f32 / (1u64 << 53) as f32
     };
-    let mut dir = |next: &mut dyn FnMut() -> f32| {
+    let dir = |next: &mut dyn FnMut() -> f32| {
         let z: f32 = 0.05 + 0.95 * next();
         let p = 2.0 * std::f32::consts::PI * next();
         let r = (1.0 - z * z).sqrt();
