@@ -82,7 +82,7 @@ impl Blend {
 
 /// Index i and fraction t with xs[i] ≤ x ≤ xs[i+1] (x clamped to the range).
 fn bracket(xs: &[f64], x: f64) -> (usize, f64) {
-    if xs.len() == 1 || x <= xs[0] {
+    if xs.len() == 1 || x.is_nan() || x <= xs[0] {
         return (0, 0.0);
     }
     let last = xs.len() - 1;
@@ -209,9 +209,9 @@ impl Decoder {
         }
     }
 
-    /// The records to blend for a query incidence (θ, φ in degrees), the θ they are evaluated
-    /// at (clamped to the stored range) and the frame rotation (isotropic files).
-    fn blend(&self, theta: f64, phi: f64) -> (Blend, f64) {
+    /// The records to blend for a query incidence (θ, φ in degrees) and the incidence they are
+    /// evaluated at: θ clamped to the stored range, or a scattered file's nearest record's own.
+    fn blend(&self, theta: f64, phi: f64) -> (Blend, f64, f64) {
         match &self.lattice {
             Lattice::Theta(thetas) => {
                 let (i, t) = bracket(thetas, theta);
@@ -223,7 +223,7 @@ impl Decoder {
                         b = Blend::one(i + 1);
                     }
                 }
-                (b, theta.clamp(thetas[0], thetas[thetas.len() - 1]))
+                (b, theta.clamp(thetas[0], thetas[thetas.len() - 1]), phi)
             }
             Lattice::Grid {
                 thetas,
@@ -257,7 +257,7 @@ impl Decoder {
                 if b.n == 0 {
                     b = Blend::one(index[i * np + j0]);
                 }
-                (b, theta.clamp(thetas[0], thetas[thetas.len() - 1]))
+                (b, theta.clamp(thetas[0], thetas[thetas.len() - 1]), phi)
             }
             Lattice::Nearest => {
                 let q = dir_from_deg(theta, phi);
@@ -268,10 +268,8 @@ impl Decoder {
                         best = (c, i);
                     }
                 }
-                (
-                    Blend::one(best.1),
-                    self.material.records[best.1].theta_i as f64,
-                )
+                let r = &self.material.records[best.1];
+                (Blend::one(best.1), r.theta_i as f64, r.phi_i as f64)
             }
         }
     }
@@ -330,7 +328,8 @@ impl Decoder {
     ) {
         let n = wavelengths.len().min(out.len());
         let out = &mut out[..n];
-        if !(0.0..=90.0).contains(&incident.0) || !(0.0..=90.0).contains(&outgoing.0) {
+        let finite = incident.1.is_finite() && outgoing.1.is_finite();
+        if !finite || !(0.0..=90.0).contains(&incident.0) || !(0.0..=90.0).contains(&outgoing.0) {
             out.fill(0.0);
             return;
         }
@@ -377,13 +376,13 @@ impl Decoder {
         mut sink: impl FnMut(usize, f64),
     ) {
         let m = &self.material;
-        let (blend, clamped) = self.blend(theta, phi);
+        let (blend, at_theta, at_phi) = self.blend(theta, phi);
         // Outside the stored θ range the nearest stored θ is used, incident vector included.
         let wi = match wi {
-            Some(v) if clamped == theta => v,
-            _ => dir_from_deg(clamped, phi),
+            Some(v) if at_theta == theta && at_phi == phi => v,
+            _ => dir_from_deg(at_theta, at_phi),
         };
-        let theta = clamped;
+        let (theta, phi) = (at_theta, at_phi);
         let recs = &blend.rec[..blend.n];
         let ws = &blend.w[..blend.n];
         let k = recs.iter().map(|&r| m.records[r].terms).max().unwrap_or(1);
@@ -514,7 +513,10 @@ impl Decoder {
                             wsum += w;
                         }
                     }
-                    if wsum > 0.0 {
+                    if recs.len() == 1 && kk < m.records[recs[0]].terms {
+                        let b = m.records[recs[0]].lobes[li].params[kk] as f64;
+                        *ck += amp(0, kk) * (-a2 / b).exp();
+                    } else if wsum > 0.0 {
                         *ck += amp(0, kk) * (-a2 / (lw / wsum).exp()).exp();
                     }
                 }

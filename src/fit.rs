@@ -88,6 +88,20 @@ impl FitContext {
         }
     }
 
+    /// The N×(L+1)² matrix of SH functions at unit directions.
+    pub(crate) fn sh_matrix(&self, dirs: &[[f64; 3]]) -> DMatrix<f64> {
+        let p = self.sh.count();
+        let mut y = DMatrix::zeros(dirs.len(), p);
+        let mut row = vec![0.0; p];
+        for (i, d) in dirs.iter().enumerate() {
+            self.sh.eval(*d, &mut row);
+            for j in 0..p {
+                y[(i, j)] = row[j];
+            }
+        }
+        y
+    }
+
     /// Fits one incident direction. Values are rounded to f32 (the caller rounds further for
     /// f16 and re-measures with [`FitContext::measure`]).
     pub fn fit(&self, s: &IncidentSamples) -> Result<Fitted, String> {
@@ -106,14 +120,7 @@ impl FitContext {
         let rho = DMatrix::from_row_slice(n, self.w, &s.values);
         // N×K spectral coefficients of every outgoing spectrum.
         let coeffs = &rho * self.projection.transpose();
-        let mut y = DMatrix::zeros(n, p);
-        let mut row = vec![0.0; p];
-        for (i, d) in dirs.iter().enumerate() {
-            self.sh.eval(*d, &mut row);
-            for j in 0..p {
-                y[(i, j)] = row[j];
-            }
-        }
+        let y = self.sh_matrix(&dirs);
         let (mt, mp) = mirror_deg(s.theta_i, s.phi_i);
         let candidate = match self.peak {
             PeakMode::Joint => unreachable!("handled above"),
@@ -268,21 +275,14 @@ impl FitContext {
 
     /// Σ(ρ̂ − ρ)² and Σρ² of a record (as stored, f32 or f16-rounded) against the samples.
     pub fn measure(&self, r: &IncidentRecord, s: &IncidentSamples) -> (f64, f64) {
-        let p = self.sh.count();
-        let mut y = DMatrix::zeros(s.directions.len(), p);
-        let mut row = vec![0.0; p];
         let peak = dir_from_deg(r.theta_p as f64, r.phi_p as f64);
-        let mut alpha = Vec::with_capacity(s.directions.len());
-        let mut dirs = Vec::with_capacity(s.directions.len());
-        for (i, d) in s.directions.iter().enumerate() {
-            let v = dir_from_deg(d[0], d[1]);
-            self.sh.eval(v, &mut row);
-            for j in 0..p {
-                y[(i, j)] = row[j];
-            }
-            alpha.push(angle_between(v, peak));
-            dirs.push(v);
-        }
+        let dirs: Vec<[f64; 3]> = s
+            .directions
+            .iter()
+            .map(|d| dir_from_deg(d[0], d[1]))
+            .collect();
+        let alpha: Vec<f64> = dirs.iter().map(|v| angle_between(*v, peak)).collect();
+        let y = self.sh_matrix(&dirs);
         let rho = DMatrix::from_row_slice(s.directions.len(), self.w, &s.values);
         self.measure_parts(r, &y, &dirs, &alpha, &rho)
     }

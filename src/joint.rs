@@ -119,15 +119,7 @@ fn prepare(ctx: &FitContext, s: &IncidentSamples) -> Result<Incidence, String> {
     let total = rho.norm_squared();
     let floor = (total - cq.norm_squared()).max(0.0);
     let r_inv_t = lstsq(&r.transpose(), &DMatrix::identity(k, k));
-    let p = ctx.sh.count();
-    let mut y = DMatrix::zeros(n, p);
-    let mut row = vec![0.0; p];
-    for (i, d) in dirs.iter().enumerate() {
-        ctx.sh.eval(*d, &mut row);
-        for j in 0..p {
-            y[(i, j)] = row[j];
-        }
-    }
+    let y = ctx.sh_matrix(&dirs);
     let mirror = mirror_deg(s.theta_i, s.phi_i);
     let peak = find_peak_direction(s, mirror);
     let pv = dir_from_deg(peak.0, peak.1);

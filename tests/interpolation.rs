@@ -67,6 +67,18 @@ fn anisotropic_grid_interpolates_in_both_angles() {
     dec.eval_deg((60.0, 0.0), (40.0, 180.0), &wl, &mut a);
     dec.eval_deg((40.0, 0.0), (40.0, 180.0), &wl, &mut b);
     assert_eq!(a, b);
+    // Hostile queries: zeros, never a panic or a NaN.
+    let mut out = [1.0, 1.0];
+    dec.eval_deg((30.0, f64::NAN), (40.0, 180.0), &[550.0, 600.0], &mut out);
+    assert_eq!(out, [0.0, 0.0]);
+    let mut out = [1.0f32, 1.0];
+    dec.eval(
+        [0.3, 0.0, 0.95],
+        [-0.3, 0.0, 0.95],
+        &[f32::NAN, f32::INFINITY],
+        &mut out,
+    );
+    assert_eq!(out, [0.0, 0.0]);
 }
 
 #[test]
