@@ -172,7 +172,15 @@ impl SpectralSpace {
                 } else if lambda >= n[w - 1] {
                     (w - 2, 1.0)
                 } else {
-                    let i = n.partition_point(|&x| x <= lambda) - 1;
+                    // Uniform nodes (the usual case) are indexed directly; the guess is checked,
+                    // and a binary search settles anything else.
+                    let h = (n[w - 1] - n[0]) / (w - 1) as f64;
+                    let g = (((lambda - n[0]) / h) as usize).min(w - 2);
+                    let i = if n[g] <= lambda && lambda < n[g + 1] {
+                        g
+                    } else {
+                        n.partition_point(|&x| x <= lambda) - 1
+                    };
                     (i, (lambda - n[i]) / (n[i + 1] - n[i]))
                 };
                 for (k, v) in out.iter_mut().enumerate() {
