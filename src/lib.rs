@@ -13,6 +13,8 @@
 
 pub mod angles;
 pub mod capi;
+mod cie;
+pub mod color;
 pub mod decoder;
 pub mod error;
 pub mod format;
