@@ -91,18 +91,32 @@ impl EncodeOptions {
 
     /// The number of terms to fit, resolving `None`.
     pub fn effective_terms(&self, set: &SampleSet) -> usize {
+        self.terms_and_table(set).0
+    }
+
+    /// The number of terms, and for the data-derived basis its table, from one SVD.
+    fn terms_and_table(&self, set: &SampleSet) -> (usize, Option<BasisTable>) {
+        let w = set.wavelengths.len();
         match (self.terms, self.basis) {
-            (Some(k), _) => k,
-            (None, SpectralBasis::Tabulated) => {
-                auto_rank(set, 0.5 * self.max_error.unwrap_or(DEFAULT_MAX_ERROR), 8)
+            (Some(k), SpectralBasis::Tabulated) if k >= 1 && k <= w => {
+                (k, Some(derive_basis(set, k, self.precision)))
             }
-            (None, _) => 13.min(set.wavelengths.len()),
+            (Some(k), _) => (k, None),
+            (None, SpectralBasis::Tabulated) => {
+                // The leading rows of a rank-8 derivation are the lower-rank bases themselves;
+                // the rank is chosen on the exact (orthonormal) vectors, then they are rounded.
+                let limit = 0.5 * self.max_error.unwrap_or(DEFAULT_MAX_ERROR);
+                let mut vectors = singular_vectors(set, AUTO_RANK_MAX.min(w));
+                let r = rank_meeting(set, &vectors, limit);
+                vectors.truncate(r * w);
+                (r, Some(rounded_table(set, vectors, self.precision)))
+            }
+            (None, _) => (13.min(w), None),
         }
     }
 
-    fn check(&self, set: &SampleSet) -> Result<()> {
+    fn check(&self, set: &SampleSet, terms: usize) -> Result<()> {
         let w = set.wavelengths.len();
-        let terms = self.effective_terms(set);
         if terms == 0 || terms > MAX_TERMS {
             return Err(Error::Parameter(format!(
                 "--terms {terms} is outside 1..={MAX_TERMS}"
@@ -162,12 +176,10 @@ pub struct Encoded {
 pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
     set.validate()
         .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
-    opts.check(set)?;
-    let terms = opts.effective_terms(set);
+    let (terms, table) = opts.terms_and_table(set);
+    opts.check(set, terms)?;
     let mut spectral = spectral_space(opts.basis, terms, &set.wavelengths);
-    if opts.basis == SpectralBasis::Tabulated {
-        spectral.table = Some(derive_basis(set, terms, opts.precision));
-    }
+    spectral.table = table;
     spectral.validate().map_err(Error::Parameter)?;
     let mut ctx = FitContext::new(
         spectral.clone(),
@@ -247,19 +259,28 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
     })
 }
 
+/// The largest rank the automatic choice considers.
+pub const AUTO_RANK_MAX: usize = 8;
+
 /// The smallest rank r ≤ `max` (and ≤ W) whose leading r singular vectors leave at most `limit`
 /// relative error at every incidence.
 pub fn auto_rank(set: &SampleSet, limit: f64, max: usize) -> usize {
+    let vectors = singular_vectors(set, max.min(set.wavelengths.len()).max(1));
+    rank_meeting(set, &vectors, limit)
+}
+
+/// The smallest number of leading rows of `vectors` (orthonormal, W values each; all of them at
+/// most) that leave at most `limit` relative error at every incidence.
+fn rank_meeting(set: &SampleSet, vectors: &[f64], limit: f64) -> usize {
     let w = set.wavelengths.len();
-    let max = max.min(w).max(1);
-    let table = derive_basis(set, max, Precision::F32);
+    let max = vectors.len() / w;
     for r in 1..max {
         let ok = set.incidences.iter().all(|s| {
             let (mut total, mut kept) = (0.0, 0.0);
             for spectrum in s.values.chunks(w) {
                 total += spectrum.iter().map(|v| v * v).sum::<f64>();
                 for k in 0..r {
-                    let row = &table.values[k * w..(k + 1) * w];
+                    let row = &vectors[k * w..(k + 1) * w];
                     let c: f64 = row.iter().zip(spectrum).map(|(a, b)| a * b).sum();
                     kept += c * c;
                 }
@@ -278,6 +299,11 @@ pub fn auto_rank(set: &SampleSet, limit: f64, max: usize) -> usize {
 /// the relative error), each made positive at its largest entry (a deterministic sign) and
 /// rounded to the precision the file stores it in (the fit then uses exactly those values).
 pub fn derive_basis(set: &SampleSet, rank: usize, precision: Precision) -> BasisTable {
+    rounded_table(set, singular_vectors(set, rank), precision)
+}
+
+/// The leading `rank` right singular vectors, sign-fixed, unrounded: `rank` rows of W values.
+fn singular_vectors(set: &SampleSet, rank: usize) -> Vec<f64> {
     let w = set.wavelengths.len();
     let rows: usize = set.incidences.iter().map(|s| s.directions.len()).sum();
     let mut m = nalgebra::DMatrix::zeros(rows, w);
@@ -313,11 +339,20 @@ pub fn derive_basis(set: &SampleSet, rank: usize, precision: Precision) -> Basis
             .cloned()
             .fold(0.0f64, |a, v| if v.abs() > a.abs() { v } else { a });
         let sign = if big < 0.0 { -1.0 } else { 1.0 };
-        values.extend(row.iter().map(|v| match precision {
-            Precision::F32 => (sign * v) as f32 as f64,
-            Precision::F16 => half::f16::from_f64(sign * v).to_f64(),
-        }));
+        values.extend(row.iter().map(|v| sign * v));
     }
+    values
+}
+
+/// The basis table storing `vectors` rounded to `precision`.
+fn rounded_table(set: &SampleSet, vectors: Vec<f64>, precision: Precision) -> BasisTable {
+    let values = vectors
+        .into_iter()
+        .map(|v| match precision {
+            Precision::F32 => v as f32 as f64,
+            Precision::F16 => half::f16::from_f64(v).to_f64(),
+        })
+        .collect();
     BasisTable {
         nodes: set.wavelengths.iter().map(|&l| l as f32 as f64).collect(),
         values,
