@@ -3,8 +3,10 @@
 use crate::angles::{angle_between, deg_from_dir, dir_from_deg, dot, mirror_deg, normalize};
 use crate::error::{Error, Result};
 use crate::format::{read_material, Limits};
+use crate::lobes::MicrofacetGeometry;
 use crate::material::{LobeKind, Material, MAX_TERMS};
 use crate::sh::{sh_count, ShBasis, MAX_SH_LEVEL};
+use crate::spectral::SpectrumEvaluator;
 use std::path::Path;
 
 const MAX_SH: usize = sh_count(MAX_SH_LEVEL);
@@ -32,17 +34,21 @@ pub struct Decoder {
     lattice: Lattice,
     /// SH level ≤ 6 and ≤ 16 terms: evaluation can use small scratch arrays.
     small: bool,
+    spectrum: SpectrumEvaluator,
+    /// The stored θ range's ends with their sine and cosine: a query clamped to an end keeps
+    /// its azimuth without trigonometry.
+    theta_ends: [(f64, f64, f64); 2],
 }
 
 /// How stored incidences are arranged, which decides how a query is interpolated.
 #[derive(Debug, Clone)]
 enum Lattice {
     /// Isotropic files: records in increasing θi, all at φi = 0; linear in θ.
-    Theta(Vec<f64>),
+    Theta(Axis),
     /// Every combination of some θ values and some φ values: bilinear, φ wrapping at 360°.
     Grid {
-        thetas: Vec<f64>,
-        phis: Vec<f64>,
+        thetas: Axis,
+        phis: Axis,
         /// Record index of (θ_i, φ_j) at i·phis.len() + j.
         index: Vec<usize>,
     },
@@ -80,17 +86,52 @@ impl Blend {
     }
 }
 
-/// Index i and fraction t with xs[i] ≤ x ≤ xs[i+1] (x clamped to the range).
-fn bracket(xs: &[f64], x: f64) -> (usize, f64) {
-    if xs.len() == 1 || x.is_nan() || x <= xs[0] {
-        return (0, 0.0);
+/// Strictly increasing stored angles along one axis of the incidence lattice.
+#[derive(Debug, Clone)]
+struct Axis {
+    xs: Vec<f64>,
+    /// (n − 1)/(last − first): the cell of an evenly spaced axis (the usual one) is guessed with
+    /// one multiplication, then checked; a search settles anything else.
+    inv_step: f64,
+}
+
+impl Axis {
+    fn new(xs: Vec<f64>) -> Self {
+        let n = xs.len();
+        let inv_step = if n > 1 {
+            (n - 1) as f64 / (xs[n - 1] - xs[0])
+        } else {
+            0.0
+        };
+        Axis { xs, inv_step }
     }
-    let last = xs.len() - 1;
-    if x >= xs[last] {
-        return (last - 1, 1.0);
+
+    fn first(&self) -> f64 {
+        self.xs[0]
     }
-    let i = xs.partition_point(|&v| v <= x) - 1;
-    (i, (x - xs[i]) / (xs[i + 1] - xs[i]))
+
+    fn last(&self) -> f64 {
+        self.xs[self.xs.len() - 1]
+    }
+
+    /// Index i and fraction t with xs[i] ≤ x ≤ xs[i+1] (x clamped to the range).
+    fn bracket(&self, x: f64) -> (usize, f64) {
+        let xs = &self.xs;
+        if xs.len() == 1 || x.is_nan() || x <= xs[0] {
+            return (0, 0.0);
+        }
+        let last = xs.len() - 1;
+        if x >= xs[last] {
+            return (last - 1, 1.0);
+        }
+        let g = (((x - xs[0]) * self.inv_step) as usize).min(last - 1);
+        let i = if xs[g] <= x && x < xs[g + 1] {
+            g
+        } else {
+            xs.partition_point(|&v| v <= x) - 1
+        };
+        (i, (x - xs[i]) / (xs[i + 1] - xs[i]))
+    }
 }
 
 impl Decoder {
@@ -168,6 +209,13 @@ impl Decoder {
                     .collect()
             })
             .collect();
+        let spectrum = SpectrumEvaluator::new(&material.spectral);
+        let end = |t: f64| {
+            let (s, c) = t.to_radians().sin_cos();
+            (t, s, c)
+        };
+        let first = material.records.first().map_or(0.0, |r| r.theta_i as f64);
+        let last = material.records.last().map_or(0.0, |r| r.theta_i as f64);
         Ok(Decoder {
             material,
             sh,
@@ -176,13 +224,15 @@ impl Decoder {
             ln_params,
             lattice,
             small,
+            spectrum,
+            theta_ends: [end(first), end(last)],
         })
     }
 
     fn lattice_of(m: &Material) -> Lattice {
         let recs = &m.records;
         if m.isotropic {
-            return Lattice::Theta(recs.iter().map(|r| r.theta_i as f64).collect());
+            return Lattice::Theta(Axis::new(recs.iter().map(|r| r.theta_i as f64).collect()));
         }
         let mut thetas: Vec<f64> = recs.iter().map(|r| r.theta_i as f64).collect();
         thetas.dedup(); // records are sorted by (θ, φ)
@@ -203,8 +253,8 @@ impl Decoder {
             }
         }
         Lattice::Grid {
-            thetas,
-            phis,
+            thetas: Axis::new(thetas),
+            phis: Axis::new(phis),
             index,
         }
     }
@@ -214,35 +264,35 @@ impl Decoder {
     fn blend(&self, theta: f64, phi: f64) -> (Blend, f64, f64) {
         match &self.lattice {
             Lattice::Theta(thetas) => {
-                let (i, t) = bracket(thetas, theta);
+                let (i, t) = thetas.bracket(theta);
                 let mut b = Blend::one(i);
-                if thetas.len() > 1 {
+                if thetas.xs.len() > 1 {
                     b.w[0] = 1.0 - t;
                     b.push(i + 1, t);
                     if b.w[0] <= 0.0 {
                         b = Blend::one(i + 1);
                     }
                 }
-                (b, theta.clamp(thetas[0], thetas[thetas.len() - 1]), phi)
+                (b, theta.clamp(thetas.first(), thetas.last()), phi)
             }
             Lattice::Grid {
                 thetas,
                 phis,
                 index,
             } => {
-                let (i, t) = bracket(thetas, theta);
-                let i1 = (i + 1).min(thetas.len() - 1);
+                let (i, t) = thetas.bracket(theta);
+                let i1 = (i + 1).min(thetas.xs.len() - 1);
                 // φ cells wrap: between the last φ and the first + 360°.
-                let np = phis.len();
+                let np = phis.xs.len();
                 let p = crate::angles::wrap_phi(phi);
                 let (j0, j1, u) = if np == 1 {
                     (0, 0, 0.0)
-                } else if p < phis[0] || p >= phis[np - 1] {
-                    let span = phis[0] + 360.0 - phis[np - 1];
-                    let d = (p - phis[np - 1]).rem_euclid(360.0);
+                } else if p < phis.first() || p >= phis.last() {
+                    let span = phis.first() + 360.0 - phis.last();
+                    let d = (p - phis.last()).rem_euclid(360.0);
                     (np - 1, 0, d / span)
                 } else {
-                    let (j, u) = bracket(phis, p);
+                    let (j, u) = phis.bracket(p);
                     (j, j + 1, u)
                 };
                 let mut b = Blend {
@@ -257,7 +307,7 @@ impl Decoder {
                 if b.n == 0 {
                     b = Blend::one(index[i * np + j0]);
                 }
-                (b, theta.clamp(thetas[0], thetas[thetas.len() - 1]), phi)
+                (b, theta.clamp(thetas.first(), thetas.last()), phi)
             }
             Lattice::Nearest => {
                 let q = dir_from_deg(theta, phi);
@@ -290,8 +340,16 @@ impl Decoder {
     pub fn eval(&self, wi: [f32; 3], wo: [f32; 3], wavelengths: &[f32], out: &mut [f32]) {
         let n = wavelengths.len().min(out.len());
         let out = &mut out[..n];
-        let widen = |v: [f32; 3]| [v[0] as f64, v[1] as f64, v[2] as f64];
-        let (Some(wi), Some(wo)) = (normalize(widen(wi)), normalize(widen(wo))) else {
+        // Widened and normalised with one reciprocal (a division per component costs more).
+        let unit = |v: [f32; 3]| {
+            let v = [v[0] as f64, v[1] as f64, v[2] as f64];
+            let n = dot(v, v).sqrt();
+            (n.is_finite() && n > 0.0).then(|| {
+                let s = 1.0 / n;
+                [v[0] * s, v[1] * s, v[2] * s]
+            })
+        };
+        let (Some(wi), Some(wo)) = (unit(wi), unit(wo)) else {
             out.fill(0.0);
             return;
         };
@@ -300,13 +358,17 @@ impl Decoder {
             return;
         }
         let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
-        let theta = r.atan2(wi[2]).to_degrees();
+        // θ only places the query between stored incidences. Single precision matches what
+        // the f32 input vector can say about its own angle (≈1e-7 rad); the `libm` crate's
+        // atan2f inlines here and costs a fraction of the system library's f64 atan2.
+        let theta = (libm::atan2f(r as f32, wi[2] as f32) as f64).to_degrees();
         let wl = wavelengths.iter().map(|&l| l as f64);
         let sink = |i: usize, v: f64| out[i] = v as f32;
         if self.material.isotropic {
             // Rotate into the stored frame (φi = 0) with the azimuth's cosine and sine, no trig.
             let (c, s) = if r > 0.0 {
-                (wi[0] / r, wi[1] / r)
+                let inv = 1.0 / r;
+                (wi[0] * inv, wi[1] * inv)
             } else {
                 (1.0, 0.0)
             };
@@ -380,6 +442,7 @@ impl Decoder {
         // Outside the stored θ range the nearest stored θ is used, incident vector included.
         let wi = match wi {
             Some(v) if at_theta == theta && at_phi == phi => v,
+            Some(v) if at_phi == phi => self.clamped(v, at_theta),
             _ => dir_from_deg(at_theta, at_phi),
         };
         let (theta, phi) = (at_theta, at_phi);
@@ -411,7 +474,8 @@ impl Decoder {
             .map(|&r| m.records[r].lobes.len())
             .max()
             .unwrap_or(0);
-        let (mt, mp) = mirror_deg(theta, phi);
+        // The microfacet geometry depends on the directions alone: computed at most once.
+        let mut geometry = None;
         for li in 0..max_lobes {
             let kind = m.records[recs[0]].lobes.get(li).map(|l| l.kind);
             let shared = kind.is_some()
@@ -419,23 +483,54 @@ impl Decoder {
                     .iter()
                     .all(|&r| m.records[r].lobes.get(li).map(|l| l.kind) == kind);
             if shared {
-                self.add_lobe(&mut c[..k], recs, ws, li, wi, wo, (mt, mp));
+                self.add_lobe(
+                    &mut c[..k],
+                    recs,
+                    ws,
+                    li,
+                    wi,
+                    wo,
+                    (theta, phi),
+                    &mut geometry,
+                );
             } else {
                 for (&r, &w) in recs.iter().zip(ws) {
                     if li < m.records[r].lobes.len() {
-                        self.add_lobe(&mut c[..k], &[r], &[w], li, wi, wo, (mt, mp));
+                        let one = ([r], [w]);
+                        self.add_lobe(
+                            &mut c[..k],
+                            &one.0,
+                            &one.1,
+                            li,
+                            wi,
+                            wo,
+                            (theta, phi),
+                            &mut geometry,
+                        );
                     }
                 }
             }
         }
-        let mut b = [0.0f64; NT];
         for (i, l) in wavelengths.enumerate() {
             if !l.is_finite() {
                 sink(i, 0.0); // documented: a non-finite wavelength gives 0
                 continue;
             }
-            m.spectral.eval(l, &mut b);
-            sink(i, c[..k].iter().zip(&b[..k]).map(|(x, y)| x * y).sum());
+            sink(i, self.spectrum.dot(&c[..k], l));
+        }
+    }
+
+    /// The unit vector at polar angle `theta` (degrees; one of the stored range's ends) with the
+    /// azimuth of the unit vector `v`; φ = 0 when `v` is the normal.
+    fn clamped(&self, v: [f64; 3], theta: f64) -> [f64; 3] {
+        let Some(&(_, s, c)) = self.theta_ends.iter().find(|e| e.0 == theta) else {
+            return dir_from_deg(theta, crate::angles::deg_from_dir(v).1);
+        };
+        let r = (v[0] * v[0] + v[1] * v[1]).sqrt();
+        if r > 0.0 {
+            [s * v[0] / r, s * v[1] / r, c]
+        } else {
+            [s, 0.0, c]
         }
     }
 
@@ -451,7 +546,8 @@ impl Decoder {
         li: usize,
         wi: [f64; 3],
         wo: [f64; 3],
-        mirror: (f64, f64),
+        incidence: (f64, f64),
+        geometry: &mut Option<Option<MicrofacetGeometry>>,
     ) {
         let m = &self.material;
         let lobe0 = &m.records[recs[0]].lobes[li];
@@ -485,7 +581,8 @@ impl Decoder {
             let (dt, dp) = recs.iter().zip(ws).fold((0.0, 0.0), |(a, b), (&r, &w)| {
                 (a + w * self.peak_offset[r].0, b + w * self.peak_offset[r].1)
             });
-            dir_from_deg(mirror.0 + dt, mirror.1 + dp)
+            let (mt, mp) = mirror_deg(incidence.0, incidence.1);
+            dir_from_deg(mt + dt, mp + dp)
         };
         // Σ_r w_r·amplitude_r[index] for the records that have that term.
         let amp = |variant: usize, kk: usize| -> f64 {
@@ -524,10 +621,20 @@ impl Decoder {
             LobeKind::CosinePower => {
                 // The cosine is capped at 1: rounding can exceed it, and a large exponent would
                 // turn 1 + ε into infinity.
-                let g = dot(wo, peak()).clamp(0.0, 1.0).powf(geo_mean(0));
-                for (kk, ck) in c.iter_mut().enumerate() {
-                    *ck += amp(0, kk) * g;
-                }
+                // g^n as exp(n·ln g): powf's value to ~1e-15 relative, a little quicker, and the
+                // geometric mean of the exponents is already a logarithm.
+                let ln_g = dot(wo, peak()).clamp(0.0, 1.0).ln();
+                let g = if recs.len() == 1 {
+                    (m.records[recs[0]].lobes[li].params[0] as f64 * ln_g).exp()
+                } else {
+                    let ln_n: f64 = recs
+                        .iter()
+                        .zip(ws)
+                        .map(|(&r, &w)| w * self.ln_params[r][li][0])
+                        .sum();
+                    (ln_n.exp() * ln_g).exp()
+                };
+                self.add_amplitudes(c, recs, ws, li, &[g]);
             }
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
                 let a: f64 = recs
@@ -536,16 +643,28 @@ impl Decoder {
                     .map(|(&r, &w)| w * m.records[r].lobes[li].params[2] as f64)
                     .sum();
                 let params = [geo_mean(0) as f32, geo_mean(1) as f32, a as f32];
-                let v = crate::lobes::microfacet_variants_with(
-                    &params,
-                    wi,
-                    wo,
-                    lobe0.kind == LobeKind::MicrofacetSin2,
-                );
-                for (kk, ck) in c.iter_mut().enumerate() {
-                    for (j, vj) in v.iter().enumerate() {
-                        *ck += amp(j, kk) * vj;
-                    }
+                let Some(g) = *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo))
+                else {
+                    return; // wi = −wo: every variant is 0
+                };
+                let v = g.variants(&params, lobe0.kind == LobeKind::MicrofacetSin2);
+                self.add_amplitudes(c, recs, ws, li, &v);
+            }
+        }
+    }
+
+    /// c[k] += Σ_r w_r Σ_j v[j]·amplitude_r[j·K_r + k] over the terms k each record has: the
+    /// lobe's variants `v`, evaluated once, weighted by every blended record's amplitudes.
+    fn add_amplitudes(&self, c: &mut [f64], recs: &[usize], ws: &[f64], li: usize, v: &[f64]) {
+        for (&r, &w) in recs.iter().zip(ws) {
+            let rec = &self.material.records[r];
+            let amplitude = &rec.lobes[li].amplitude;
+            let t = rec.terms.min(c.len());
+            for (j, &vj) in v.iter().enumerate() {
+                let s = w * vj;
+                let row = &amplitude[j * rec.terms..j * rec.terms + t];
+                for (ck, &a) in c[..t].iter_mut().zip(row) {
+                    *ck += s * a as f64;
                 }
             }
         }

@@ -238,6 +238,144 @@ impl SpectralSpace {
     }
 }
 
+/// Σ_k c_k·B_k(λ) for many λ, with what each query needs computed once: the decoder's form of
+/// [`SpectralSpace::eval`]. The tabulated basis is stored node-major (the K values of a node
+/// side by side) with each interval's reciprocal width; the analytic bases advance cos(jθ),
+/// sin(jθ) by a recurrence from one `sin_cos`, which drifts from the direct formula by ~K·1e-16.
+#[derive(Debug, Clone)]
+pub struct SpectrumEvaluator {
+    terms: usize,
+    lambda_min: f64,
+    lambda_max: f64,
+    form: EvaluatorForm,
+}
+
+#[derive(Debug, Clone)]
+enum EvaluatorForm {
+    /// θ = scale·(λ − λmin), with scale = 2π/span (Fourier) or π/span (cosine; 0 for an empty span).
+    Fourier {
+        scale: f64,
+    },
+    Cosine {
+        scale: f64,
+    },
+    Table {
+        nodes: Vec<f64>,
+        /// values[w·K + k] = B_k(nodes[w]).
+        values: Vec<f64>,
+        /// 1 / (nodes[w+1] − nodes[w]).
+        inv_width: Vec<f64>,
+        /// Some(1/step) when the nodes are evenly spaced (to rounding): the interval is then
+        /// guessed by one multiplication and checked.
+        inv_step: Option<f64>,
+    },
+}
+
+impl SpectrumEvaluator {
+    pub fn new(space: &SpectralSpace) -> Self {
+        let span = space.lambda_max - space.lambda_min;
+        let form = match (space.basis, &space.table) {
+            (SpectralBasis::PeriodicFourier, _) => EvaluatorForm::Fourier {
+                scale: if span > 0.0 { 2.0 * PI / span } else { 0.0 },
+            },
+            (SpectralBasis::Cosine, _) => EvaluatorForm::Cosine {
+                scale: if span > 0.0 { PI / span } else { 0.0 },
+            },
+            (SpectralBasis::Tabulated, table) => {
+                let table = table
+                    .as_ref()
+                    .expect("validated: a tabulated basis has a table");
+                let w = table.nodes.len();
+                let k = space.terms;
+                let mut values = vec![0.0; w * k];
+                for kk in 0..k {
+                    for ww in 0..w {
+                        values[ww * k + kk] = table.values[kk * w + ww];
+                    }
+                }
+                let n = &table.nodes;
+                let inv_width: Vec<f64> = n.windows(2).map(|p| 1.0 / (p[1] - p[0])).collect();
+                let inv_step = (w > 1).then(|| (w - 1) as f64 / (n[w - 1] - n[0]));
+                EvaluatorForm::Table {
+                    nodes: table.nodes.clone(),
+                    values,
+                    inv_width,
+                    inv_step,
+                }
+            }
+        };
+        SpectrumEvaluator {
+            terms: space.terms,
+            lambda_min: space.lambda_min,
+            lambda_max: space.lambda_max,
+            form,
+        }
+    }
+
+    /// Σ_k c[k]·B_k(λ) over the first `c.len()` (≤ K) terms; λ outside the interval is clamped
+    /// as in [`SpectralSpace::eval`]. λ must not be NaN (the decoder answers NaN itself).
+    pub fn dot(&self, c: &[f64], lambda: f64) -> f64 {
+        let c = &c[..c.len().min(self.terms)];
+        match &self.form {
+            EvaluatorForm::Fourier { scale } => {
+                let Some((&c0, rest)) = c.split_first() else {
+                    return 0.0;
+                };
+                let l = lambda.clamp(self.lambda_min, self.lambda_max);
+                let (s1, c1) = (scale * (l - self.lambda_min)).sin_cos();
+                let (mut cj, mut sj) = (1.0, 0.0);
+                let mut sum = 0.5 * c0;
+                for pair in rest.chunks(2) {
+                    (cj, sj) = (cj * c1 - sj * s1, sj * c1 + cj * s1);
+                    sum += pair[0] * cj;
+                    if let Some(b) = pair.get(1) {
+                        sum += b * sj;
+                    }
+                }
+                sum
+            }
+            EvaluatorForm::Cosine { scale } => {
+                let l = lambda.clamp(self.lambda_min, self.lambda_max);
+                let x = (scale * (l - self.lambda_min)).cos();
+                // Chebyshev recurrence: cos(kθ) = 2x·cos((k−1)θ) − cos((k−2)θ).
+                let (mut prev, mut cur) = (x, 1.0); // cos(−θ), cos(0)
+                let mut sum = 0.0;
+                for &ck in c {
+                    sum += ck * cur;
+                    (prev, cur) = (cur, 2.0 * x * cur - prev);
+                }
+                sum
+            }
+            EvaluatorForm::Table {
+                nodes,
+                values,
+                inv_width,
+                inv_step,
+            } => {
+                let k = self.terms;
+                let w = nodes.len();
+                let row = |i: usize| &values[i * k..i * k + c.len()];
+                if w == 1 || lambda <= nodes[0] {
+                    return c.iter().zip(row(0)).map(|(a, b)| a * b).sum();
+                }
+                if lambda >= nodes[w - 1] {
+                    return c.iter().zip(row(w - 1)).map(|(a, b)| a * b).sum();
+                }
+                let guess = inv_step.map(|s| (((lambda - nodes[0]) * s) as usize).min(w - 2));
+                let i = match guess {
+                    Some(g) if nodes[g] <= lambda && lambda < nodes[g + 1] => g,
+                    _ => nodes.partition_point(|&x| x <= lambda) - 1,
+                };
+                let f = (lambda - nodes[i]) * inv_width[i];
+                c.iter()
+                    .zip(row(i).iter().zip(row(i + 1)))
+                    .map(|(a, (v0, v1))| a * (v0 + f * (v1 - v0)))
+                    .sum()
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -329,5 +467,57 @@ mod tests {
         s.eval(750.0, &mut a);
         s.eval(700.0, &mut b);
         assert_eq!(a, b);
+    }
+    #[test]
+    fn evaluator_agrees_with_the_basis_functions() {
+        let table = BasisTable {
+            nodes: vec![400.0, 410.0, 420.0, 430.0, 450.0, 700.0],
+            values: (0..18)
+                .map(|i| ((i * 7919) % 13) as f64 / 13.0 - 0.4)
+                .collect(),
+            precision: crate::material::Precision::F32,
+        };
+        let uniform = BasisTable {
+            nodes: (0..31).map(|i| 400.0 + 10.0 * i as f64).collect(),
+            values: (0..93)
+                .map(|i| ((i * 104729) % 17) as f64 / 17.0 - 0.3)
+                .collect(),
+            precision: crate::material::Precision::F32,
+        };
+        let spaces = [
+            SpectralSpace::analytic(SpectralBasis::PeriodicFourier, 13, 400.0, 700.0),
+            SpectralSpace::analytic(SpectralBasis::PeriodicFourier, 1, 550.0, 550.0),
+            SpectralSpace::analytic(SpectralBasis::Cosine, 40, 395.0, 705.0),
+            SpectralSpace::analytic(SpectralBasis::Cosine, 1, 550.0, 550.0),
+            SpectralSpace {
+                table: Some(table),
+                ..SpectralSpace::analytic(SpectralBasis::Tabulated, 3, 400.0, 700.0)
+            },
+            SpectralSpace {
+                table: Some(uniform),
+                ..SpectralSpace::analytic(SpectralBasis::Tabulated, 3, 400.0, 700.0)
+            },
+        ];
+        for s in &spaces {
+            assert!(s.validate().is_ok());
+            let ev = SpectrumEvaluator::new(s);
+            let c: Vec<f64> = (0..s.terms).map(|k| 1.0 / (k as f64 + 1.0)).collect();
+            let mut b = vec![0.0; s.terms];
+            for l in [
+                300.0, 395.0, 400.0, 404.9, 410.0, 449.99, 523.7, 550.0, 699.9, 700.0, 800.0,
+            ] {
+                for used in [1, s.terms] {
+                    s.eval(l, &mut b);
+                    let direct: f64 = c[..used].iter().zip(&b).map(|(x, y)| x * y).sum();
+                    let fast = ev.dot(&c[..used], l);
+                    assert!(
+                        (fast - direct).abs() <= 1e-12 * (1.0 + direct.abs()),
+                        "{:?} K={} λ={l} used={used}: {fast} vs {direct}",
+                        s.basis,
+                        s.terms
+                    );
+                }
+            }
+        }
     }
 }
