@@ -10,7 +10,9 @@
 
 use crate::angles::wrap_phi;
 use crate::error::{Error, Result};
-use crate::samples::{IncidentSamples, SampleSet};
+pub use crate::input::ReadReport;
+use crate::input::{build_sample_set, Place, Sample};
+use crate::samples::SampleSet;
 use std::path::Path;
 
 const ANGLE_COLUMNS: [&str; 4] = ["theta_i", "phi_i", "theta_o", "phi_o"];
@@ -274,21 +276,6 @@ pub fn scan_bytes(
     Ok(header)
 }
 
-/// One sample with where it came from, for duplicate and consistency messages.
-struct Sample {
-    key: [u64; 5],
-    value: f64,
-    file: u32,
-    line: u64,
-}
-
-/// What reading inputs produced besides the samples.
-#[derive(Debug, Clone, Default)]
-pub struct ReadReport {
-    /// Samples below zero (kept: measured data dips below zero from noise).
-    pub negative_values: usize,
-}
-
 /// Reads one or more CSV files (any mix of layouts) into one validated sample set.
 pub fn read_samples(paths: &[impl AsRef<Path>]) -> Result<(SampleSet, ReadReport)> {
     let mut files = Vec::with_capacity(paths.len());
@@ -307,6 +294,19 @@ pub fn read_samples_from_bytes(files: &[(String, Vec<u8>)]) -> Result<(SampleSet
     let names: Vec<String> = files.iter().map(|f| f.0.clone()).collect();
     let mut samples: Vec<Sample> = Vec::new();
     for (fi, (name, bytes)) in files.iter().enumerate() {
+        collect_csv(fi, name, bytes, &mut samples)?;
+    }
+    build_sample_set(samples, &names)
+}
+
+/// Appends the samples of one CSV file (file number `fi`) to `samples`.
+pub(crate) fn collect_csv(
+    fi: usize,
+    name: &str,
+    bytes: &[u8],
+    samples: &mut Vec<Sample>,
+) -> Result<()> {
+    {
         scan_bytes(name, bytes, |h, row, _| {
             let a = row.angles.map(f64::to_bits);
             let mut push = |l: f64, v: f64| {
@@ -314,7 +314,7 @@ pub fn read_samples_from_bytes(files: &[(String, Vec<u8>)]) -> Result<(SampleSet
                     key: [a[0], a[1], a[2], a[3], l.to_bits()],
                     value: v,
                     file: fi as u32,
-                    line: row.line,
+                    place: Place::Line(row.line),
                 })
             };
             match (&h.layout, row.wavelength) {
@@ -329,109 +329,7 @@ pub fn read_samples_from_bytes(files: &[(String, Vec<u8>)]) -> Result<(SampleSet
             Ok(())
         })?;
     }
-    build_sample_set(samples, &names)
-}
-
-fn build_sample_set(mut samples: Vec<Sample>, names: &[String]) -> Result<(SampleSet, ReadReport)> {
-    // All keys are non-negative floats, whose bit patterns sort like their values.
-    samples.sort_by(|a, b| {
-        a.key
-            .cmp(&b.key)
-            .then((a.file, a.line).cmp(&(b.file, b.line)))
-    });
-    let here = |s: &Sample| format!("{}:{}", names[s.file as usize], s.line);
-    let f = f64::from_bits;
-    for w in samples.windows(2) {
-        if w[0].key == w[1].key {
-            let k = w[1].key;
-            return Err(Error::Input(format!(
-                "{}: sample (theta_i {}, phi_i {}, theta_o {}, phi_o {}, {} nm) is given twice; \
-                 first at {}",
-                here(&w[1]),
-                f(k[0]),
-                f(k[1]),
-                f(k[2]),
-                f(k[3]),
-                f(k[4]),
-                here(&w[0])
-            )));
-        }
-    }
-    let report = ReadReport {
-        negative_values: samples.iter().filter(|s| s.value < 0.0).count(),
-    };
-    // Split into directions (runs of equal 4-angle keys).
-    let mut reference: Option<(Vec<u64>, usize)> = None;
-    let mut incidences: Vec<IncidentSamples> = Vec::new();
-    let mut start = 0;
-    while start < samples.len() {
-        let dir = &samples[start].key[..4];
-        let end = start
-            + samples[start..]
-                .iter()
-                .take_while(|s| &s.key[..4] == dir)
-                .count();
-        let wls: Vec<u64> = samples[start..end].iter().map(|s| s.key[4]).collect();
-        match &reference {
-            None => reference = Some((wls, start)),
-            Some((r, at)) if *r != wls => {
-                let extra: Vec<String> = wls
-                    .iter()
-                    .filter(|w| !r.contains(w))
-                    .take(4)
-                    .map(|w| f(*w).to_string())
-                    .collect();
-                let lacking: Vec<String> = r
-                    .iter()
-                    .filter(|w| !wls.contains(w))
-                    .take(4)
-                    .map(|w| f(*w).to_string())
-                    .collect();
-                return Err(Error::Input(format!(
-                    "{}: direction (theta_i {}, phi_i {}, theta_o {}, phi_o {}) has {} wavelengths \
-                     but the direction at {} has {}{}{}; every direction needs the same wavelengths",
-                    here(&samples[start]),
-                    f(dir[0]),
-                    f(dir[1]),
-                    f(dir[2]),
-                    f(dir[3]),
-                    wls.len(),
-                    here(&samples[*at]),
-                    r.len(),
-                    if extra.is_empty() { String::new() } else { format!("; only here: {} nm", extra.join(", ")) },
-                    if lacking.is_empty() { String::new() } else { format!("; missing here: {} nm", lacking.join(", ")) },
-                )));
-            }
-            _ => {}
-        }
-        let (ti, pi) = (f(dir[0]), f(dir[1]));
-        if incidences
-            .last()
-            .is_none_or(|s| (s.theta_i, s.phi_i) != (ti, pi))
-        {
-            incidences.push(IncidentSamples {
-                theta_i: ti,
-                phi_i: pi,
-                directions: Vec::new(),
-                values: Vec::new(),
-            });
-        }
-        let inc = incidences.last_mut().unwrap();
-        inc.directions.push([f(dir[2]), f(dir[3])]);
-        inc.values
-            .extend(samples[start..end].iter().map(|s| s.value));
-        start = end;
-    }
-    let wavelengths = reference
-        .map(|(r, _)| r.into_iter().map(f).collect())
-        .unwrap_or_default();
-    let set = SampleSet {
-        wavelengths,
-        incidences,
-    };
-    set.validate()
-        .map_err(|e| Error::Input(format!("{}: {e}", names.join(", "))))?;
-    Ok((set, report))
+    Ok(())
 }
 
 /// Formats a wavelength as a column name: the shortest text that reads back the same.

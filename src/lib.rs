@@ -7,7 +7,7 @@
 //! * [`Decoder`] opens a file and evaluates ρ(ωi, ωo, λ); it needs no optional feature, so a
 //!   renderer can depend on `sbrdf` with `default-features = false`.
 //! * With the `encode` feature, [`encoder`] fits sampled BRDFs ([`samples::SampleSet`]).
-//! * With the `cli` feature (default), the `sbrdf` program and the CSV reader.
+//! * With the `cli` feature (default), the `sbrdf` program and the CSV and spectral-EXR readers.
 //!
 //! Conventions: `spec/EVALUATION.md`; byte format: `spec/FORMAT.md`.
 
@@ -34,6 +34,10 @@ pub mod samples;
 
 #[cfg(feature = "cli")]
 pub mod csv_input;
+#[cfg(feature = "cli")]
+pub mod exr_io;
+#[cfg(feature = "cli")]
+pub mod input;
 #[cfg(feature = "cli")]
 pub mod output;
 #[cfg(feature = "cli")]

@@ -110,7 +110,8 @@ enum PrecisionArg {
 
 #[derive(Args)]
 struct EncodeArgs {
-    /// Input CSV files (long or wide layout); several are merged.
+    /// Inputs: CSV files (long or wide layout), spectral-EXR slices (one per incident
+    /// direction), or folders of them; all are merged.
     #[arg(required = true)]
     inputs: Vec<PathBuf>,
     /// Output .sbrdf file (written atomically).
@@ -165,12 +166,29 @@ struct EncodeArgs {
 #[derive(Args)]
 struct DecodeArgs {
     input: PathBuf,
-    /// Output CSV file.
+    /// Output CSV file; with --exr, the folder for the slices (created if its parent exists).
     #[arg(short, long)]
     output: PathBuf,
     /// Reference CSV: write values at exactly its rows, in its layout.
-    #[arg(long, value_name = "REF")]
+    #[arg(long, value_name = "REF", conflicts_with = "exr")]
     like: Option<PathBuf>,
+    /// Write one spectral EXR per stored incident direction (channels T.<λ>nm; pixel (i, j) is
+    /// θo = (i + ½)·90°/H, φo = (j + ½)·360°/W), named <stem>_ti<θ>_pi<φ>.exr.
+    #[arg(long)]
+    exr: bool,
+    /// With --exr: rows × columns (θo × φo), like 18x72 [default: the stored sample grid when
+    /// it is a pixel grid, else 18x72, i.e. 5°].
+    #[arg(long, value_name = "HxW", requires = "exr")]
+    resolution: Option<String>,
+    /// With --exr: pixel storage.
+    #[arg(long, value_enum, default_value = "float", requires = "exr")]
+    pixel_type: PixelTypeArg,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PixelTypeArg {
+    Half,
+    Float,
 }
 
 #[derive(Args)]
@@ -254,7 +272,7 @@ struct GridArgs {
     /// Incident direction θ,φ in degrees (repeatable).
     #[arg(long, required = true, value_name = "θ,φ", allow_hyphen_values = true)]
     incident: Vec<String>,
-    /// Output CSV file.
+    /// Output CSV file (with --layout exr, a folder, created if its parent exists).
     #[arg(short, long)]
     output: PathBuf,
     /// Wavelengths MIN:MAX:STEP in nm (within 380–780).
@@ -263,17 +281,21 @@ struct GridArgs {
     /// Outgoing θ spacing: θo = step/2, 3·step/2, … below 90.
     #[arg(long, default_value_t = 5.0)]
     theta_step: f64,
-    /// Outgoing φ spacing: φo = 0, step, … below 360.
+    /// Outgoing φ spacing: φo = 0, step, … below 360 (with --layout exr, pixel centres:
+    /// step/2, 3·step/2, …).
     #[arg(long, default_value_t = 5.0)]
     phi_step: f64,
+    /// Output layout: a wide or long CSV, or one spectral EXR slice per incident direction
+    /// (float pixels; the steps must divide 90° and 360°).
     #[arg(long, value_enum, default_value = "wide")]
     layout: LayoutArg,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum LayoutArg {
     Wide,
     Long,
+    Exr,
 }
 
 #[derive(Args)]
@@ -370,7 +392,13 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
             .ok_or_else(|| Error::Parameter(format!("--metadata '{kv}': expected KEY=VALUE")))?;
         provenance.push((k.trim().to_string(), v.to_string()));
     }
-    let (set, report) = csv_input::read_samples(&a.inputs)?;
+    let (set, report) = sbrdf::input::read_inputs(&a.inputs)?;
+    if report.missing_pixels > 0 {
+        eprintln!(
+            "sbrdf: note: {} EXR pixels marked missing (NaN or mask 0) were skipped",
+            report.missing_pixels
+        );
+    }
     if report.negative_values > 0 {
         eprintln!(
             "sbrdf: warning: {} of {} samples are negative (kept as measured)",
@@ -471,6 +499,9 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
 
 fn cmd_decode(a: DecodeArgs) -> Result<()> {
     let dec = Decoder::open(&a.input)?;
+    if a.exr {
+        return decode_exr(&dec, &a);
+    }
     match &a.like {
         Some(reference) => decode_like(&dec, reference, &a.output),
         None => {
@@ -525,6 +556,87 @@ fn cmd_decode(a: DecodeArgs) -> Result<()> {
             write_atomic(&a.output, |w| csv_input::write_wide(&set, w, Some(&note)))
         }
     }
+}
+
+/// The stored sample grid of record `i` as (rows, columns) when it is an EXR pixel grid.
+fn stored_pixel_grid(m: &sbrdf::Material, i: usize) -> Option<(usize, usize)> {
+    let sp = m.sample_positions.as_ref()?;
+    match sp.sets.get(*sp.set_of_incidence.get(i)? as usize)? {
+        sbrdf::material::DirectionSet::Grid {
+            theta0,
+            dtheta,
+            ntheta,
+            phi0,
+            dphi,
+            nphi,
+        } => {
+            let (h, w) = (*ntheta as usize, *nphi as usize);
+            let close = |a: f32, b: f64| (a as f64 - b).abs() <= 1e-5 * b.abs().max(1.0);
+            (h > 0
+                && w > 0
+                && close(*dtheta, 90.0 / h as f64)
+                && close(*theta0, 45.0 / h as f64)
+                && close(*dphi, 360.0 / w as f64)
+                && close(*phi0, 180.0 / w as f64))
+            .then_some((h, w))
+        }
+        sbrdf::material::DirectionSet::List(_) => None,
+    }
+}
+
+fn parse_resolution(s: &str) -> Result<(usize, usize)> {
+    let bad = || {
+        Error::Parameter(format!(
+            "--resolution '{s}': expected rows x columns, like 18x72 (both 1..=4096)"
+        ))
+    };
+    let (h, w) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+    let h: usize = h.trim().parse().map_err(|_| bad())?;
+    let w: usize = w.trim().parse().map_err(|_| bad())?;
+    if !(1..=4096).contains(&h) || !(1..=4096).contains(&w) {
+        return Err(bad());
+    }
+    Ok((h, w))
+}
+
+fn decode_exr(dec: &Decoder, a: &DecodeArgs) -> Result<()> {
+    let m = dec.material();
+    let fixed = a.resolution.as_deref().map(parse_resolution).transpose()?;
+    let dir = &a.output;
+    sbrdf::output::ensure_output_folder(dir, "--exr")?;
+    let stem = a
+        .input
+        .file_stem()
+        .map_or("slice".into(), |s| s.to_string_lossy().into_owned());
+    let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
+    let pixel_type = match a.pixel_type {
+        PixelTypeArg::Half => sbrdf::exr_io::PixelType::Half,
+        PixelTypeArg::Float => sbrdf::exr_io::PixelType::Float,
+    };
+    for (i, r) in m.records.iter().enumerate() {
+        let (h, w) = fixed
+            .or_else(|| stored_pixel_grid(m, i))
+            .unwrap_or((18, 72));
+        let (ti, pi) = (r.theta_i as f64, r.phi_i as f64);
+        let mut values = vec![0.0; h * w * wl.len()];
+        for row in 0..h {
+            for col in 0..w {
+                let o = sbrdf::exr_io::pixel_direction(row, col, h, w);
+                let at = (row * w + col) * wl.len();
+                dec.eval_deg((ti, pi), (o[0], o[1]), &wl, &mut values[at..at + wl.len()]);
+            }
+        }
+        let bytes = sbrdf::exr_io::write_slice(ti, pi, h, w, &wl, &values, pixel_type)?;
+        let path = dir.join(sbrdf::exr_io::slice_file_name(&stem, ti, pi));
+        write_bytes_atomic(&path, &bytes)?;
+    }
+    eprintln!(
+        "sbrdf: wrote {} spectral EXR slices ({} wavelengths) to {}",
+        m.records.len(),
+        wl.len(),
+        dir.display()
+    );
+    Ok(())
 }
 
 fn decode_like(dec: &Decoder, reference: &Path, output: &Path) -> Result<()> {
@@ -777,6 +889,9 @@ fn write_synth(
         }
         incidences.push((t, sbrdf::angles::wrap_phi(p)));
     }
+    if g.layout == LayoutArg::Exr {
+        return write_synth_exr(g, &wl, &incidences, f);
+    }
     let dirs = paper_grid(g.theta_step, g.phi_step);
     let set = sample_material(&wl, &incidences, &dirs, f);
     write_atomic(&g.output, |w| match g.layout {
@@ -788,7 +903,49 @@ fn write_synth(
             })?;
             csv_input::write_long(&set, w)
         }
+        LayoutArg::Exr => unreachable!("handled above"),
     })
+}
+
+/// `synth --layout exr`: one float slice per incidence, pixel centres as outgoing directions.
+fn write_synth_exr(
+    g: &GridArgs,
+    wl: &[f64],
+    incidences: &[(f64, f64)],
+    f: impl Fn((f64, f64), (f64, f64), usize) -> f64,
+) -> Result<()> {
+    let count = |span: f64, step: f64, name: &str| -> Result<usize> {
+        let n = (span / step).round();
+        if (n * step - span).abs() > 1e-9 * span || !(1.0..=4096.0).contains(&n) {
+            return Err(Error::Parameter(format!(
+                "--{name} {step} must divide {span}° into 1..=4096 pixels for --layout exr"
+            )));
+        }
+        Ok(n as usize)
+    };
+    let h = count(90.0, g.theta_step, "theta-step")?;
+    let w = count(360.0, g.phi_step, "phi-step")?;
+    let dir = &g.output;
+    sbrdf::output::ensure_output_folder(dir, "--layout exr")?;
+    let stem = dir
+        .file_name()
+        .map_or("slice".into(), |s| s.to_string_lossy().into_owned());
+    for &(ti, pi) in incidences {
+        let mut values = Vec::with_capacity(h * w * wl.len());
+        for row in 0..h {
+            for col in 0..w {
+                let [to, po] = sbrdf::exr_io::pixel_direction(row, col, h, w);
+                values.extend((0..wl.len()).map(|k| f((ti, pi), (to, po), k)));
+            }
+        }
+        let bytes =
+            sbrdf::exr_io::write_slice(ti, pi, h, w, wl, &values, sbrdf::exr_io::PixelType::Float)?;
+        write_bytes_atomic(
+            &dir.join(sbrdf::exr_io::slice_file_name(&stem, ti, pi)),
+            &bytes,
+        )?;
+    }
+    Ok(())
 }
 
 fn cmd_phong(a: PhongArgs) -> Result<()> {

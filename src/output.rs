@@ -49,3 +49,18 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
 pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic(path, |w| w.write_all(bytes).map_err(|e| Error::io(path, e)))
 }
+
+/// Makes sure `dir` is a folder to write outputs into: an existing folder, or a new one created
+/// when its parent exists (one level, like `mkdir`). `what` names the option in messages.
+pub fn ensure_output_folder(dir: &Path, what: &str) -> Result<()> {
+    if dir.is_dir() {
+        return Ok(());
+    }
+    if dir.exists() {
+        return Err(Error::Parameter(format!(
+            "{what} writes a folder of files, but '{}' is a file",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir(dir).map_err(|e| Error::io(dir, e))
+}

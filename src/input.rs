@@ -1,0 +1,236 @@
+//! Reading sampled BRDFs: CSV files ([`crate::csv_input`]) and spectral-EXR slices
+//! ([`crate::exr_io`]), in any mix, merged into one validated [`SampleSet`] with the same checks
+//! (duplicates, one wavelength set, ranges) whatever the files were.
+
+use crate::csv_input::collect_csv;
+use crate::error::{Error, Result};
+use crate::exr_io;
+use crate::samples::{IncidentSamples, SampleSet};
+use std::path::{Path, PathBuf};
+
+/// The first four bytes of every OpenEXR file.
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
+/// Expands folders into the `.exr` and `.csv` files they hold (sorted by name); files are kept
+/// as given.
+pub fn expand_inputs(paths: &[impl AsRef<Path>]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for p in paths {
+        let p = p.as_ref();
+        if p.is_dir() {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(p)
+                .map_err(|e| Error::io(p, e))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    f.is_file()
+                        && f.extension().and_then(|x| x.to_str()).is_some_and(|x| {
+                            x.eq_ignore_ascii_case("exr") || x.eq_ignore_ascii_case("csv")
+                        })
+                })
+                .collect();
+            if found.is_empty() {
+                return Err(Error::Input(format!(
+                    "{}: the folder holds no .exr or .csv files",
+                    p.display()
+                )));
+            }
+            found.sort();
+            out.extend(found);
+        } else {
+            out.push(p.to_path_buf());
+        }
+    }
+    Ok(out)
+}
+
+/// Reads CSV files, EXR slices and folders of them into one validated sample set.
+pub fn read_inputs(paths: &[impl AsRef<Path>]) -> Result<(SampleSet, ReadReport)> {
+    let mut files = Vec::new();
+    for p in expand_inputs(paths)? {
+        let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+        files.push((p.display().to_string(), bytes));
+    }
+    read_inputs_from_bytes(&files)
+}
+
+/// [`read_inputs`] over (name, bytes) pairs held in memory. A file is read as EXR when it
+/// starts with the OpenEXR magic number, as CSV otherwise.
+pub fn read_inputs_from_bytes(files: &[(String, Vec<u8>)]) -> Result<(SampleSet, ReadReport)> {
+    let names: Vec<String> = files.iter().map(|f| f.0.clone()).collect();
+    let mut samples = Vec::new();
+    let mut missing = 0;
+    for (fi, (name, bytes)) in files.iter().enumerate() {
+        if bytes.starts_with(&EXR_MAGIC) {
+            missing += collect_exr(fi, name, bytes, &mut samples)?;
+        } else {
+            collect_csv(fi, name, bytes, &mut samples)?;
+        }
+    }
+    let (set, mut report) = build_sample_set(samples, &names)?;
+    report.missing_pixels = missing;
+    Ok((set, report))
+}
+
+/// Appends the samples of one EXR slice; returns how many pixels were marked missing.
+fn collect_exr(fi: usize, name: &str, bytes: &[u8], samples: &mut Vec<Sample>) -> Result<usize> {
+    let slice = exr_io::read_slice(name, bytes)?;
+    let (ti, pi) = (slice.theta_i.to_bits(), slice.phi_i.to_bits());
+    samples.reserve(slice.pixels.len() * slice.wavelengths.len());
+    for (row, column, spectrum) in &slice.pixels {
+        let [to, po] = exr_io::pixel_direction(*row, *column, slice.height, slice.width);
+        for (&l, &v) in slice.wavelengths.iter().zip(spectrum) {
+            samples.push(Sample {
+                key: [ti, pi, to.to_bits(), po.to_bits(), l.to_bits()],
+                value: v,
+                file: fi as u32,
+                place: Place::Pixel {
+                    row: *row as u32,
+                    column: *column as u32,
+                },
+            });
+        }
+    }
+    Ok(slice.missing)
+}
+
+/// One sample with where it came from, for duplicate and consistency messages.
+pub(crate) struct Sample {
+    /// Bit patterns of θi, φi, θo, φo, λ (all non-negative, so they sort like the values).
+    pub key: [u64; 5],
+    pub value: f64,
+    /// Index into the list of input names.
+    pub file: u32,
+    pub place: Place,
+}
+
+/// Where in its file a sample was read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum Place {
+    /// A CSV line (1-based).
+    Line(u64),
+    /// An EXR pixel.
+    Pixel { row: u32, column: u32 },
+}
+
+/// What reading inputs produced besides the samples.
+#[derive(Debug, Clone, Default)]
+pub struct ReadReport {
+    /// Samples below zero (kept: measured data dips below zero from noise).
+    pub negative_values: usize,
+    /// EXR pixels skipped as not measured (NaN or mask 0).
+    pub missing_pixels: usize,
+}
+
+pub(crate) fn build_sample_set(
+    mut samples: Vec<Sample>,
+    names: &[String],
+) -> Result<(SampleSet, ReadReport)> {
+    // All keys are non-negative floats, whose bit patterns sort like their values.
+    samples.sort_by(|a, b| {
+        a.key
+            .cmp(&b.key)
+            .then((a.file, a.place).cmp(&(b.file, b.place)))
+    });
+    let here = |s: &Sample| match s.place {
+        Place::Line(line) => format!("{}:{line}", names[s.file as usize]),
+        Place::Pixel { row, column } => {
+            format!(
+                "{}: pixel (row {row}, column {column})",
+                names[s.file as usize]
+            )
+        }
+    };
+    let f = f64::from_bits;
+    for w in samples.windows(2) {
+        if w[0].key == w[1].key {
+            let k = w[1].key;
+            return Err(Error::Input(format!(
+                "{}: sample (theta_i {}, phi_i {}, theta_o {}, phi_o {}, {} nm) is given twice; \
+                 first at {}",
+                here(&w[1]),
+                f(k[0]),
+                f(k[1]),
+                f(k[2]),
+                f(k[3]),
+                f(k[4]),
+                here(&w[0])
+            )));
+        }
+    }
+    let report = ReadReport {
+        negative_values: samples.iter().filter(|s| s.value < 0.0).count(),
+        missing_pixels: 0,
+    };
+    // Split into directions (runs of equal 4-angle keys).
+    let mut reference: Option<(Vec<u64>, usize)> = None;
+    let mut incidences: Vec<IncidentSamples> = Vec::new();
+    let mut start = 0;
+    while start < samples.len() {
+        let dir = &samples[start].key[..4];
+        let end = start
+            + samples[start..]
+                .iter()
+                .take_while(|s| &s.key[..4] == dir)
+                .count();
+        let wls: Vec<u64> = samples[start..end].iter().map(|s| s.key[4]).collect();
+        match &reference {
+            None => reference = Some((wls, start)),
+            Some((r, at)) if *r != wls => {
+                let extra: Vec<String> = wls
+                    .iter()
+                    .filter(|w| !r.contains(w))
+                    .take(4)
+                    .map(|w| f(*w).to_string())
+                    .collect();
+                let lacking: Vec<String> = r
+                    .iter()
+                    .filter(|w| !wls.contains(w))
+                    .take(4)
+                    .map(|w| f(*w).to_string())
+                    .collect();
+                return Err(Error::Input(format!(
+                    "{}: direction (theta_i {}, phi_i {}, theta_o {}, phi_o {}) has {} wavelengths \
+                     but the direction at {} has {}{}{}; every direction needs the same wavelengths",
+                    here(&samples[start]),
+                    f(dir[0]),
+                    f(dir[1]),
+                    f(dir[2]),
+                    f(dir[3]),
+                    wls.len(),
+                    here(&samples[*at]),
+                    r.len(),
+                    if extra.is_empty() { String::new() } else { format!("; only here: {} nm", extra.join(", ")) },
+                    if lacking.is_empty() { String::new() } else { format!("; missing here: {} nm", lacking.join(", ")) },
+                )));
+            }
+            _ => {}
+        }
+        let (ti, pi) = (f(dir[0]), f(dir[1]));
+        if incidences
+            .last()
+            .is_none_or(|s| (s.theta_i, s.phi_i) != (ti, pi))
+        {
+            incidences.push(IncidentSamples {
+                theta_i: ti,
+                phi_i: pi,
+                directions: Vec::new(),
+                values: Vec::new(),
+            });
+        }
+        let inc = incidences.last_mut().unwrap();
+        inc.directions.push([f(dir[2]), f(dir[3])]);
+        inc.values
+            .extend(samples[start..end].iter().map(|s| s.value));
+        start = end;
+    }
+    let wavelengths = reference
+        .map(|(r, _)| r.into_iter().map(f).collect())
+        .unwrap_or_default();
+    let set = SampleSet {
+        wavelengths,
+        incidences,
+    };
+    set.validate()
+        .map_err(|e| Error::Input(format!("{}: {e}", names.join(", "))))?;
+    Ok((set, report))
+}
