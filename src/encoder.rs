@@ -111,7 +111,7 @@ impl EncodeOptions {
                 vectors.truncate(r * w);
                 (r, Some(rounded_table(set, vectors, self.precision)))
             }
-            (None, _) => (13.min(w), None),
+            (None, basis) => (13.min(series_limit(basis, w)), None),
         }
     }
 
@@ -126,6 +126,14 @@ impl EncodeOptions {
             return Err(Error::Parameter(format!(
                 "--terms {terms} exceeds the {w} wavelength samples of the input: a spectral \
                  series cannot have more terms than samples (use --terms {w} or fewer)"
+            )));
+        }
+        let limit = series_limit(self.basis, w);
+        if terms > limit {
+            return Err(Error::Parameter(format!(
+                "--terms {terms} is too many for the periodic Fourier basis on {w} wavelength \
+                 samples: it takes λmin and λmax as one point, leaving {limit} independent \
+                 values (use --terms {limit} or fewer, or --basis cosine)"
             )));
         }
         let l = self.effective_sh_level();
@@ -169,6 +177,9 @@ pub struct Encoded {
     /// Indices of the records whose error budget (`max_error`) could not be met; they hold
     /// the most accurate model tried.
     pub unmet: Vec<usize>,
+    /// What the encoder decided on its own that the user should hear about (a lowered SH level
+    /// where the samples could not support the one asked for).
+    pub notes: Vec<String>,
 }
 
 /// Fits every incident direction (in parallel; the result does not depend on the thread count,
@@ -198,7 +209,36 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         .incidences
         .par_iter()
         .map(|s| {
-            let mut f = ctx.fit(s).map_err(|e| {
+            let mut note = None;
+            let fit = ctx.fit(s).or_else(|e| {
+                // The paper's split needs (L+1)² background samples; with fewer outgoing
+                // samples the level is lowered until the fit is determined, and reported.
+                if opts.peak != PeakMode::Paper {
+                    return Err(e);
+                }
+                for level in (0..opts.effective_sh_level()).rev() {
+                    let lower = FitContext::new(
+                        spectral.clone(),
+                        &set.wavelengths,
+                        level,
+                        opts.peak,
+                        opts.critical_angle,
+                    );
+                    if let Ok(f) = lower.fit(s) {
+                        note = Some(format!(
+                            "incidence ({}, {}): {} outgoing samples cannot determine SH level \
+                             {} beside the peak; stored at level {level}",
+                            s.theta_i,
+                            s.phi_i,
+                            s.directions.len(),
+                            opts.effective_sh_level()
+                        ));
+                        return Ok(f);
+                    }
+                }
+                Err(e)
+            });
+            let mut f = fit.map_err(|e| {
                 Error::Parameter(format!("incidence ({}, {}): {e}", s.theta_i, s.phi_i))
             })?;
             if opts.precision == Precision::F16 && opts.peak != PeakMode::Joint {
@@ -207,13 +247,15 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
                 f.sq_error = e;
                 f.record.rel_error = stored_error(rel(e, r));
             }
-            Ok(f)
+            Ok((f, note))
         })
-        .collect::<Result<_>>()?;
+        .collect::<Result<Vec<_>>>()?;
     let (mut sq_e, mut sq_r) = (0.0, 0.0);
     let mut records = Vec::with_capacity(fitted.len());
     let mut unmet = Vec::new();
-    for f in fitted {
+    let mut notes = Vec::new();
+    for (f, note) in fitted {
+        notes.extend(note);
         sq_e += f.sq_error;
         sq_r += f.sq_reference;
         if !f.met {
@@ -256,6 +298,7 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         rel_error,
         raw_bytes: set.raw_f32_bytes(),
         unmet,
+        notes,
     })
 }
 
@@ -342,6 +385,15 @@ fn singular_vectors(set: &SampleSet, rank: usize) -> Vec<f64> {
         values.extend(row.iter().map(|v| sign * v));
     }
     values
+}
+
+/// The most terms a basis supports on `w` wavelength samples: the periodic Fourier series sees
+/// the first and last sample as one point of its period, so it has one value fewer.
+fn series_limit(basis: SpectralBasis, w: usize) -> usize {
+    match basis {
+        SpectralBasis::PeriodicFourier if w > 1 => w - 1,
+        _ => w,
+    }
 }
 
 /// The basis table storing `vectors` rounded to `precision`.

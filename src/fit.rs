@@ -444,7 +444,55 @@ fn fit_gaussian(
 /// median level (so a diffuse floor does not flatten the log-Gaussian). Scattered directions,
 /// where rows and columns hold too few points, use one 2-D log-quadratic fit in the tangent
 /// plane; if no peak stands out the geometric mirror direction is used.
+///
+/// Beyond the paper: the estimate is then compared with the mirror direction itself, and the one
+/// about which the bright samples fall off more like a Gaussian of the angle (the smaller
+/// residual of ln(level − median) against angle²) is kept. Rows and columns cannot locate a
+/// peak past the last sampled θo (grazing incidence: at 89° the samples stop at 87.5°), where
+/// the mirror direction is usually right.
 pub fn find_peak_direction(s: &IncidentSamples, mirror: (f64, f64)) -> (f64, f64) {
+    let found = locate_peak(s, mirror);
+    if found == mirror {
+        return found;
+    }
+    let w = s.values.len() / s.directions.len();
+    let level: Vec<f64> = s
+        .values
+        .chunks(w)
+        .map(|c| c.iter().sum::<f64>() / w as f64)
+        .collect();
+    let mut sorted = level.clone();
+    sorted.sort_by(f64::total_cmp);
+    let base = sorted[sorted.len() / 2];
+    let max = sorted[sorted.len() - 1];
+    let threshold = base + 0.5 * (max - base);
+    let picked: Vec<usize> = (0..level.len()).filter(|&i| level[i] > threshold).collect();
+    if picked.len() < 3 {
+        return found;
+    }
+    // Residual of the best fit ln(level − base) = a − c·angle², over the bright samples.
+    let residual = |centre: (f64, f64)| -> f64 {
+        let c = dir_from_deg(centre.0, centre.1);
+        let m = DMatrix::from_fn(picked.len(), 2, |r, k| {
+            let d = s.directions[picked[r]];
+            let a2 = angle_between(dir_from_deg(d[0], d[1]), c).powi(2);
+            [1.0, a2][k]
+        });
+        let v = DMatrix::from_fn(picked.len(), 1, |r, _| (level[picked[r]] - base).ln());
+        let x = lstsq(&m, &v);
+        if x[(1, 0)].is_nan() || x[(1, 0)] >= 0.0 {
+            return f64::INFINITY; // not falling off away from this centre
+        }
+        (&m * &x - &v).norm_squared()
+    };
+    if residual(mirror) < residual(found) {
+        mirror
+    } else {
+        found
+    }
+}
+
+fn locate_peak(s: &IncidentSamples, mirror: (f64, f64)) -> (f64, f64) {
     let w = s.values.len() / s.directions.len();
     let level: Vec<f64> = s
         .values

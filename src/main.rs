@@ -444,6 +444,9 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
         inputs: a.inputs.iter().map(|p| p.display().to_string()).collect(),
     };
     let encoded = encode(&set, &opts)?;
+    for note in &encoded.notes {
+        eprintln!("sbrdf: note: {note}");
+    }
     if !encoded.unmet.is_empty() {
         let m = &encoded.material;
         let list: Vec<String> = encoded
