@@ -519,7 +519,13 @@ class SbrdfFile:
         for rec, wgt in cells:
             weights[rec] = weights.get(rec, 0.0) + wgt
         blended = [(rec, wgt) for rec, wgt in sorted(weights.items()) if wgt > 0]
-        return blended, (theta_star, 0.0 if self.isotropic else pq)
+        if self.isotropic:
+            phi_star = 0.0
+        elif nphi == 1:
+            phi_star = self.phis[0]  # a single stored azimuth is clamped to, like θ
+        else:
+            phi_star = pq
+        return blended, (theta_star, phi_star)
 
     def blended_peak(self, recs, theta_star, phi_star):
         """"Blended peak direction" for a shared lobe of kind 1 or 4."""

@@ -307,6 +307,9 @@ impl Decoder {
                 if b.n == 0 {
                     b = Blend::one(index[i * np + j0]);
                 }
+                // One stored azimuth is clamped to like θ: its records are used whole, at
+                // their own φ, as every other query outside the stored range is.
+                let phi = if np == 1 { phis.first() } else { phi };
                 (b, theta.clamp(thetas.first(), thetas.last()), phi)
             }
             Lattice::Nearest => {
@@ -637,11 +640,15 @@ impl Decoder {
                 self.add_amplitudes(c, recs, ws, li, &[g]);
             }
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
-                let a: f64 = recs
+                // The Smith parameter is interpolated linearly; normalised by the weights, so a
+                // record evaluated on its own (lobes not shared) keeps its stored value.
+                let (wa, wsum) = recs
                     .iter()
                     .zip(ws)
-                    .map(|(&r, &w)| w * m.records[r].lobes[li].params[2] as f64)
-                    .sum();
+                    .fold((0.0, 0.0), |(wa, wsum), (&r, &w)| {
+                        (wa + w * m.records[r].lobes[li].params[2] as f64, wsum + w)
+                    });
+                let a = wa / wsum;
                 let params = [geo_mean(0) as f32, geo_mean(1) as f32, a as f32];
                 let Some(g) = *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo))
                 else {
