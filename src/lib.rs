@@ -37,6 +37,8 @@ pub mod csv_input;
 #[cfg(feature = "cli")]
 pub mod exr_io;
 #[cfg(feature = "cli")]
+pub mod figures;
+#[cfg(feature = "cli")]
 pub mod input;
 #[cfg(feature = "cli")]
 pub mod output;
