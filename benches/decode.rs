@@ -1,7 +1,9 @@
 //! Decoder speed against the simplest alternative a renderer would use: a dense raw table of the
 //! same samples with bilinear lookup in (θo, φo), linear in λ, nearest stored incidence.
 //! Per query, for 1, 4 and 31 wavelengths, on a 9-incidence Phong material and a 7-incidence
-//! GGX material; plus the time to open a file. Both are measured in the same run.
+//! GGX material; plus the time to open a file. Both are measured in the same run. Importance
+//! sampling: ns per `sample` and per `pdf`, next to `eval` at one wavelength, on the same
+//! materials and incidences.
 
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use sbrdf::encoder::{encode, EncodeOptions};
@@ -124,6 +126,18 @@ fn queries(n: usize) -> Vec<([f32; 3], [f32; 3])> {
     (0..n).map(|_| (dir(&mut next), dir(&mut next))).collect()
 }
 
+/// Deterministic uniform pairs for `sample`.
+fn uniforms(n: usize) -> Vec<[f32; 2]> {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        ((state >> 40) as f32 / (1u32 << 24) as f32).min(0.999_999_9)
+    };
+    (0..n).map(|_| [next(), next()]).collect()
+}
+
 fn bench_decode(c: &mut Criterion) {
     let qs = queries(4096);
     for (name, set) in materials() {
@@ -161,6 +175,33 @@ fn bench_decode(c: &mut Criterion) {
                 })
             });
         }
+        g.finish();
+        let us = uniforms(qs.len());
+        let mut g = c.benchmark_group(format!("sampling_{name}"));
+        g.throughput(Throughput::Elements(qs.len() as u64));
+        let mut one = [0.0f32];
+        g.bench_function("eval_1", |b| {
+            b.iter(|| {
+                for (wi, wo) in &qs {
+                    dec.eval(*wi, *wo, &[550.0], &mut one);
+                    black_box(&one);
+                }
+            })
+        });
+        g.bench_function("sample", |b| {
+            b.iter(|| {
+                for ((wi, _), u) in qs.iter().zip(&us) {
+                    black_box(dec.sample(*wi, *u));
+                }
+            })
+        });
+        g.bench_function("pdf", |b| {
+            b.iter(|| {
+                for (wi, wo) in &qs {
+                    black_box(dec.pdf(*wi, *wo));
+                }
+            })
+        });
         g.finish();
         eprintln!(
             "{name}: file {} bytes, raw table {} bytes",

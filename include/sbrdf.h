@@ -5,8 +5,9 @@
  *
  * Conventions: wi points from the surface toward the light, wo toward the viewer; both are unit
  * vectors in the local shading frame with z the surface normal. Values are in 1/sr, wavelengths
- * in nm. Below the horizon (wi.z < 0 or wo.z < 0) the value is 0. A handle is immutable once
- * open: it may be shared by any number of threads. No function lets a Rust panic cross into C.
+ * in nm. Below the horizon (wi.z < 0 or wo.z < 0) the value is 0; it is never negative. A handle
+ * is immutable once open: it may be shared by any number of threads. No function lets a Rust
+ * panic cross into C.
  * Kept in sync with src/capi.rs by tests/c_api.rs.
  */
 #ifndef SBRDF_H
@@ -34,6 +35,13 @@ int  sbrdf_open_file(const char *path, sbrdf_t **out);        /* 0 on success, e
 int  sbrdf_open_memory(const uint8_t *data, size_t len, sbrdf_t **out);
 int  sbrdf_eval(const sbrdf_t *b, const float wi[3], const float wo[3],
                 const float *wavelengths_nm, size_t count, float *out);
+/* Importance sampling, the same for every wavelength: draws wo (toward the viewer) for wi (toward
+ * the light) from u1, u2 uniform in [0, 1), and its density *pdf (1/sr, over solid angle), which
+ * is exactly what sbrdf_pdf returns for that wo. wi below the horizon: wo = (0, 0, 0), *pdf = 0.
+ * A path tracer that knows the viewer's direction passes it as wi and takes wo as the light's:
+ * right as far as the material is reciprocal. */
+int  sbrdf_sample(const sbrdf_t *b, const float wi[3], float u1, float u2, float wo[3], float *pdf);
+int  sbrdf_pdf(const sbrdf_t *b, const float wi[3], const float wo[3], float *pdf);
 void sbrdf_close(sbrdf_t *b);
 const char *sbrdf_error_message(int code);                    /* static string, never NULL */
 

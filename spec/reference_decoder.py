@@ -584,7 +584,8 @@ class SbrdfFile:
                 out.append(0.0)
                 continue
             b = self.basis_at(lam, tmax)
-            out.append(sum(c * bk for c, bk in zip(coef, b)))
+            # step 5: the series clamped at 0
+            out.append(max(0.0, sum(c * bk for c, bk in zip(coef, b))))
         return out
 
     def add_shared_lobe(self, coef, kind, li, recs, tmax, wi, w, ts, ps):

@@ -111,6 +111,65 @@ pub unsafe extern "C" fn sbrdf_eval(
     })
 }
 
+/// Draws an outgoing direction `wo` (toward the viewer) for the incident direction `wi` (toward
+/// the light) from two uniform numbers in [0, 1) (1 is taken as just below 1), and stores the
+/// density it was drawn with (1/sr, over solid angle; the same for every wavelength) in `*pdf`:
+/// exactly what `sbrdf_pdf` gives for that `wo`. When `wi` is below the horizon or zero there is
+/// no direction: `wo` = (0, 0, 0) and `*pdf` = 0, still `SBRDF_OK`. A non-finite `wi`, `u1`
+/// or `u2` is `SBRDF_ERR_ARGUMENT`. Allocates nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sbrdf_sample(
+    b: *const sbrdf_t,
+    wi: *const f32,
+    u1: f32,
+    u2: f32,
+    wo: *mut f32,
+    pdf: *mut f32,
+) -> c_int {
+    guarded(|| {
+        if b.is_null() || wi.is_null() || wo.is_null() || pdf.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        let wi = [*wi, *wi.add(1), *wi.add(2)];
+        if !wi.iter().all(|v| v.is_finite()) || !u1.is_finite() || !u2.is_finite() {
+            return SBRDF_ERR_ARGUMENT;
+        }
+        let (dir, p) = match (*b).0.sample(wi, [u1, u2]) {
+            Some(s) => (s.wo, s.pdf),
+            None => ([0.0; 3], 0.0),
+        };
+        for (i, v) in dir.iter().enumerate() {
+            *wo.add(i) = *v;
+        }
+        *pdf = p;
+        SBRDF_OK
+    })
+}
+
+/// The density (1/sr, over solid angle) with which `sbrdf_sample` draws `wo` for `wi`, into
+/// `*pdf`: 0 when either direction is below the horizon or zero. A non-finite vector is
+/// `SBRDF_ERR_ARGUMENT`. Allocates nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sbrdf_pdf(
+    b: *const sbrdf_t,
+    wi: *const f32,
+    wo: *const f32,
+    pdf: *mut f32,
+) -> c_int {
+    guarded(|| {
+        if b.is_null() || wi.is_null() || wo.is_null() || pdf.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        let wi = [*wi, *wi.add(1), *wi.add(2)];
+        let wo = [*wo, *wo.add(1), *wo.add(2)];
+        if !wi.iter().chain(&wo).all(|v| v.is_finite()) {
+            return SBRDF_ERR_ARGUMENT;
+        }
+        *pdf = (*b).0.pdf(wi, wo);
+        SBRDF_OK
+    })
+}
+
 /// Frees a handle; null is allowed.
 #[no_mangle]
 pub unsafe extern "C" fn sbrdf_close(b: *mut sbrdf_t) {
@@ -132,7 +191,7 @@ pub extern "C" fn sbrdf_error_message(code: c_int) -> *const c_char {
         }
         SBRDF_ERR_LIMITS => b"the file exceeds the decoder's size limits\0",
         SBRDF_ERR_ARGUMENT => {
-            b"an argument is invalid (a non-finite vector, a path that is not UTF-8)\0"
+            b"an argument is invalid (a non-finite vector or number, a path that is not UTF-8)\0"
         }
         SBRDF_ERR_INTERNAL => b"internal error in sbrdf (please report it)\0",
         _ => b"unknown sbrdf error code\0",

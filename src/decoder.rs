@@ -5,6 +5,7 @@ use crate::error::{Error, Result};
 use crate::format::{read_material, Limits};
 use crate::lobes::MicrofacetGeometry;
 use crate::material::{LobeKind, Material, MAX_TERMS};
+use crate::sampling::{Sample, SamplingWeights};
 use crate::sh::{sh_count, ShBasis, MAX_SH_LEVEL};
 use crate::spectral::SpectrumEvaluator;
 use std::path::Path;
@@ -26,11 +27,11 @@ pub struct Decoder {
     peak_offset: Vec<(f64, f64)>,
     /// Per record: the unit peak vector (isotropic files blend these directly, which needs no
     /// trigonometry: all their records share the φ = 0 frame).
-    peaks: Vec<[f64; 3]>,
+    pub(crate) peaks: Vec<[f64; 3]>,
     /// Natural logarithms of every lobe parameter, [record][lobe][parameter]: widths, exponents
     /// and microfacet b, c are interpolated geometrically, and taking logs once here keeps
     /// `ln` out of the per-query path.
-    ln_params: Vec<Vec<Vec<f64>>>,
+    pub(crate) ln_params: Vec<Vec<Vec<f64>>>,
     lattice: Lattice,
     /// SH level ≤ 6 and ≤ 16 terms: evaluation can use small scratch arrays.
     small: bool,
@@ -38,6 +39,55 @@ pub struct Decoder {
     /// The stored θ range's ends with their sine and cosine: a query clamped to an end keeps
     /// its azimuth without trigonometry.
     theta_ends: [(f64, f64, f64); 2],
+    /// Per record, the energy of the background and of each lobe: the mixture weights of
+    /// importance sampling (`src/sampling.rs`).
+    pub(crate) sampling: SamplingWeights,
+}
+
+/// A query's incident direction turned into the frame its records are stored in: for isotropic
+/// files rotated about z so that its azimuth is 0 (`spec/EVALUATION.md`, "Reconstruction",
+/// step 3).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct QueryFrame {
+    /// θ and φ of the incident direction in that frame, degrees.
+    pub theta: f64,
+    pub phi: f64,
+    /// The unit incident vector in that frame.
+    pub wi: [f64; 3],
+    /// (cos ψ, sin ψ) of the rotation by −ψ into the frame; None when there is none.
+    pub rotation: Option<(f64, f64)>,
+}
+
+impl QueryFrame {
+    /// A vector of the local frame in the records' frame.
+    #[inline]
+    pub fn in_frame(self, v: [f64; 3]) -> [f64; 3] {
+        match self.rotation {
+            Some((c, s)) => [c * v[0] + s * v[1], -s * v[0] + c * v[1], v[2]],
+            None => v,
+        }
+    }
+
+    /// A vector of the records' frame back in the local frame.
+    #[inline]
+    pub fn out_of_frame(self, v: [f64; 3]) -> [f64; 3] {
+        match self.rotation {
+            Some((c, s)) => [c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]],
+            None => v,
+        }
+    }
+}
+
+/// A single-precision vector widened and normalised with one reciprocal (a division per
+/// component costs more); None when it is zero or not finite.
+#[inline]
+pub(crate) fn unit(v: [f32; 3]) -> Option<[f64; 3]> {
+    let v = [v[0] as f64, v[1] as f64, v[2] as f64];
+    let n = dot(v, v).sqrt();
+    (n.is_finite() && n > 0.0).then(|| {
+        let s = 1.0 / n;
+        [v[0] * s, v[1] * s, v[2] * s]
+    })
 }
 
 /// How stored incidences are arranged, which decides how a query is interpolated.
@@ -58,10 +108,10 @@ enum Lattice {
 
 /// Up to four records and their weights (summing to 1).
 #[derive(Debug, Clone, Copy)]
-struct Blend {
-    n: usize,
-    rec: [usize; 4],
-    w: [f64; 4],
+pub(crate) struct Blend {
+    pub n: usize,
+    pub rec: [usize; 4],
+    pub w: [f64; 4],
 }
 
 impl Blend {
@@ -216,7 +266,7 @@ impl Decoder {
         };
         let first = material.records.first().map_or(0.0, |r| r.theta_i as f64);
         let last = material.records.last().map_or(0.0, |r| r.theta_i as f64);
-        Ok(Decoder {
+        let mut decoder = Decoder {
             material,
             sh,
             peak_offset,
@@ -226,7 +276,10 @@ impl Decoder {
             small,
             spectrum,
             theta_ends: [end(first), end(last)],
-        })
+            sampling: SamplingWeights::default(),
+        };
+        decoder.sampling = SamplingWeights::new(&decoder);
+        Ok(decoder)
     }
 
     fn lattice_of(m: &Material) -> Lattice {
@@ -336,22 +389,14 @@ impl Decoder {
     }
 
     /// ρ at unit vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame
-    /// (z = normal), for each wavelength in nm, into `out` (1/sr). Directions below the horizon
-    /// give 0; so do zero or non-finite vectors. Wavelengths outside the file's spectral interval
-    /// are clamped to it; incident directions outside the stored θ range are clamped to it.
-    /// Writes `min(wavelengths.len(), out.len())` values; never allocates.
+    /// (z = normal), for each wavelength in nm, into `out` (1/sr); never negative (the series is
+    /// clamped at 0, `spec/EVALUATION.md`). Directions below the horizon give 0; so do zero or
+    /// non-finite vectors. Wavelengths outside the file's spectral interval are clamped to it;
+    /// incident directions outside the stored θ range are clamped to it. Writes
+    /// `min(wavelengths.len(), out.len())` values; never allocates.
     pub fn eval(&self, wi: [f32; 3], wo: [f32; 3], wavelengths: &[f32], out: &mut [f32]) {
         let n = wavelengths.len().min(out.len());
         let out = &mut out[..n];
-        // Widened and normalised with one reciprocal (a division per component costs more).
-        let unit = |v: [f32; 3]| {
-            let v = [v[0] as f64, v[1] as f64, v[2] as f64];
-            let n = dot(v, v).sqrt();
-            (n.is_finite() && n > 0.0).then(|| {
-                let s = 1.0 / n;
-                [v[0] * s, v[1] * s, v[2] * s]
-            })
-        };
         let (Some(wi), Some(wo)) = (unit(wi), unit(wo)) else {
             out.fill(0.0);
             return;
@@ -360,13 +405,44 @@ impl Decoder {
             out.fill(0.0);
             return;
         }
+        let q = self.query_frame(wi);
+        let wl = wavelengths.iter().map(|&l| l as f64);
+        let sink = |i: usize, v: f64| out[i] = v as f32;
+        self.eval_frame(q.theta, q.phi, Some(q.wi), q.in_frame(wo), wl, sink);
+    }
+
+    /// Draws an outgoing direction (toward the viewer) for the incident direction `wi` (toward
+    /// the light; local frame, z = normal, need not be unit length) from two uniform numbers
+    /// in [0, 1). The density is the same for every wavelength: a mixture of the stored lobes'
+    /// shapes and a cosine, weighted by the energy of each in the spectrum-averaged BRDF times
+    /// cos θo. The returned `pdf` (1/sr, over solid angle) is exactly [`Decoder::pdf`] at the
+    /// returned direction. None when `wi` is below the horizon, zero or not finite, or a `u`
+    /// is not finite. Never allocates. Details: `spec/EVALUATION.md`, "Importance sampling".
+    ///
+    /// A path tracer that starts at the camera knows the direction toward the viewer, not the
+    /// light: it passes that one as `wi` and uses the drawn direction as the light's, which is
+    /// right to the extent that the material is reciprocal (ρ(wi, wo) = ρ(wo, wi)); the stored
+    /// BRDF is reciprocal exactly as far as its input and its fit are (`tests/sampling.rs`
+    /// reports how far).
+    pub fn sample(&self, wi: [f32; 3], u: [f32; 2]) -> Option<Sample> {
+        crate::sampling::sample(self, wi, u)
+    }
+
+    /// The density (1/sr, over solid angle) with which [`Decoder::sample`] draws `wo` for `wi`:
+    /// 0 when either is below the horizon, zero or not finite; otherwise > 0 wherever
+    /// cos θo > 0. Never allocates.
+    pub fn pdf(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
+        crate::sampling::pdf(self, wi, wo)
+    }
+
+    /// The query's incident direction in the records' frame (`wi` a unit vector with z ≥ 0).
+    #[inline]
+    pub(crate) fn query_frame(&self, wi: [f64; 3]) -> QueryFrame {
         let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
         // θ only places the query between stored incidences. Single precision matches what
         // the f32 input vector can say about its own angle (≈1e-7 rad); the `libm` crate's
         // atan2f inlines here and costs a fraction of the system library's f64 atan2.
         let theta = (libm::atan2f(r as f32, wi[2] as f32) as f64).to_degrees();
-        let wl = wavelengths.iter().map(|&l| l as f64);
-        let sink = |i: usize, v: f64| out[i] = v as f32;
         if self.material.isotropic {
             // Rotate into the stored frame (φi = 0) with the azimuth's cosine and sine, no trig.
             let (c, s) = if r > 0.0 {
@@ -375,11 +451,20 @@ impl Decoder {
             } else {
                 (1.0, 0.0)
             };
-            let wo = [c * wo[0] + s * wo[1], -s * wo[0] + c * wo[1], wo[2]];
-            self.eval_frame(theta, 0.0, Some([r, 0.0, wi[2]]), wo, wl, sink);
+            QueryFrame {
+                theta,
+                phi: 0.0,
+                wi: [r, 0.0, wi[2]],
+                rotation: Some((c, s)),
+            }
         } else {
             let (_, phi) = deg_from_dir(wi);
-            self.eval_frame(theta, phi, Some(wi), wo, wl, sink);
+            QueryFrame {
+                theta,
+                phi,
+                wi,
+                rotation: None,
+            }
         }
     }
 
@@ -441,14 +526,7 @@ impl Decoder {
         mut sink: impl FnMut(usize, f64),
     ) {
         let m = &self.material;
-        let (blend, at_theta, at_phi) = self.blend(theta, phi);
-        // Outside the stored θ range the nearest stored θ is used, incident vector included.
-        let wi = match wi {
-            Some(v) if at_theta == theta && at_phi == phi => v,
-            Some(v) if at_phi == phi => self.clamped(v, at_theta),
-            _ => dir_from_deg(at_theta, at_phi),
-        };
-        let (theta, phi) = (at_theta, at_phi);
+        let (blend, wi, theta, phi) = self.resolve(theta, phi, wi);
         let recs = &blend.rec[..blend.n];
         let ws = &blend.w[..blend.n];
         let k = recs.iter().map(|&r| m.records[r].terms).max().unwrap_or(1);
@@ -519,8 +597,30 @@ impl Decoder {
                 sink(i, 0.0); // documented: a non-finite wavelength gives 0
                 continue;
             }
-            sink(i, self.spectrum.dot(&c[..k], l));
+            // Clamped at 0 (spec/EVALUATION.md, "Reconstruction", step 5): a fit can undershoot
+            // between its samples, and a renderer would turn that into negative light.
+            sink(i, self.spectrum.dot(&c[..k], l).max(0.0));
         }
+    }
+
+    /// The records to blend for a query incidence (θ, φ in degrees, in the records' frame), the
+    /// incident vector they are evaluated with (`wi`, when given, is the unit vector of (θ, φ))
+    /// and its angles: outside the stored θ range the nearest stored θ is used, incident vector
+    /// included.
+    #[inline]
+    pub(crate) fn resolve(
+        &self,
+        theta: f64,
+        phi: f64,
+        wi: Option<[f64; 3]>,
+    ) -> (Blend, [f64; 3], f64, f64) {
+        let (blend, at_theta, at_phi) = self.blend(theta, phi);
+        let wi = match wi {
+            Some(v) if at_theta == theta && at_phi == phi => v,
+            Some(v) if at_phi == phi => self.clamped(v, at_theta),
+            _ => dir_from_deg(at_theta, at_phi),
+        };
+        (blend, wi, at_theta, at_phi)
     }
 
     /// The unit vector at polar angle `theta` (degrees; one of the stored range's ends) with the
@@ -564,29 +664,7 @@ impl Decoder {
                 .sum::<f64>()
                 .exp()
         };
-        let peak = || {
-            if recs.len() == 1 {
-                return self.peaks[recs[0]];
-            }
-            if m.isotropic {
-                // Records 1D in θ, one frame: the normalised weighted mean of their peaks.
-                let mut v = [0.0; 3];
-                for (&r, &w) in recs.iter().zip(ws) {
-                    for (vi, pi) in v.iter_mut().zip(self.peaks[r]) {
-                        *vi += w * pi;
-                    }
-                }
-                if let Some(u) = normalize(v) {
-                    return u;
-                }
-            }
-            // Records at different azimuths: blend the offsets from each one's mirror direction.
-            let (dt, dp) = recs.iter().zip(ws).fold((0.0, 0.0), |(a, b), (&r, &w)| {
-                (a + w * self.peak_offset[r].0, b + w * self.peak_offset[r].1)
-            });
-            let (mt, mp) = mirror_deg(incidence.0, incidence.1);
-            dir_from_deg(mt + dt, mp + dp)
-        };
+        let peak = || self.blended_peak(recs, ws, incidence);
         // Σ_r w_r·amplitude_r[index] for the records that have that term.
         let amp = |variant: usize, kk: usize| -> f64 {
             recs.iter()
@@ -658,6 +736,37 @@ impl Decoder {
                 self.add_amplitudes(c, recs, ws, li, &v);
             }
         }
+    }
+
+    /// The peak direction of a lobe blended from the records `recs` with weights `ws`, at the
+    /// evaluation incidence (θ, φ) in degrees (`spec/EVALUATION.md`, "Blended peak direction").
+    pub(crate) fn blended_peak(
+        &self,
+        recs: &[usize],
+        ws: &[f64],
+        incidence: (f64, f64),
+    ) -> [f64; 3] {
+        if recs.len() == 1 {
+            return self.peaks[recs[0]];
+        }
+        if self.material.isotropic {
+            // Records 1D in θ, one frame: the normalised weighted mean of their peaks.
+            let mut v = [0.0; 3];
+            for (&r, &w) in recs.iter().zip(ws) {
+                for (vi, pi) in v.iter_mut().zip(self.peaks[r]) {
+                    *vi += w * pi;
+                }
+            }
+            if let Some(u) = normalize(v) {
+                return u;
+            }
+        }
+        // Records at different azimuths: blend the offsets from each one's mirror direction.
+        let (dt, dp) = recs.iter().zip(ws).fold((0.0, 0.0), |(a, b), (&r, &w)| {
+            (a + w * self.peak_offset[r].0, b + w * self.peak_offset[r].1)
+        });
+        let (mt, mp) = mirror_deg(incidence.0, incidence.1);
+        dir_from_deg(mt + dt, mp + dp)
     }
 
     /// c[k] += Σ_r w_r Σ_j v[j]·amplitude_r[j·K_r + k] over the terms k each record has: the

@@ -273,7 +273,8 @@ impl FitContext {
         }
     }
 
-    /// Σ(ρ̂ − ρ)² and Σρ² of a record (as stored, f32 or f16-rounded) against the samples.
+    /// Σ(ρ̂ − ρ)² and Σρ² of a record (as stored, f32 or f16-rounded, and decoded: clamped at 0)
+    /// against the samples.
     pub fn measure(&self, r: &IncidentRecord, s: &IncidentSamples) -> (f64, f64) {
         let peak = dir_from_deg(r.theta_p as f64, r.phi_p as f64);
         let dirs: Vec<[f64; 3]> = s
@@ -332,7 +333,9 @@ impl FitContext {
                 }
             }
         }
-        let approx = c * self.synthesis.rows(0, k);
+        // Clamped at 0 as the decoder returns it (spec/EVALUATION.md, "Reconstruction"), so
+        // every stored error is that of the values a decoder gives.
+        let approx = (c * self.synthesis.rows(0, k)).map(|v| v.max(0.0));
         let err = (approx - rho).norm_squared();
         (err, rho.norm_squared())
     }

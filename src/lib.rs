@@ -20,6 +20,7 @@ pub mod error;
 pub mod format;
 pub mod lobes;
 pub mod material;
+pub mod sampling;
 pub mod sh;
 pub mod spectral;
 
@@ -49,6 +50,7 @@ pub use decoder::Decoder;
 pub use error::{Error, Result};
 pub use format::{read_material, write_material, Limits};
 pub use material::{IncidentRecord, Lobe, LobeKind, Material, Precision};
+pub use sampling::Sample;
 pub use spectral::{SpectralBasis, SpectralSpace};
 
 #[cfg(test)]

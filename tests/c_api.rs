@@ -21,6 +21,8 @@ fn header_declares_exactly_the_exported_api() {
         "int sbrdf_open_file(const char *path, sbrdf_t **out);",
         "int sbrdf_open_memory(const uint8_t *data, size_t len, sbrdf_t **out);",
         "int sbrdf_eval(const sbrdf_t *b, const float wi[3], const float wo[3], const float *wavelengths_nm, size_t count, float *out);",
+        "int sbrdf_sample(const sbrdf_t *b, const float wi[3], float u1, float u2, float wo[3], float *pdf);",
+        "int sbrdf_pdf(const sbrdf_t *b, const float wi[3], const float wo[3], float *pdf);",
         "void sbrdf_close(sbrdf_t *b);",
         "const char *sbrdf_error_message(int code);",
     ] {
@@ -48,6 +50,8 @@ fn header_declares_exactly_the_exported_api() {
         "sbrdf_open_file",
         "sbrdf_open_memory",
         "sbrdf_eval",
+        "sbrdf_sample",
+        "sbrdf_pdf",
         "sbrdf_close",
         "sbrdf_error_message",
     ] {
@@ -159,5 +163,85 @@ fn c_calls_agree_with_the_rust_decoder_and_refuse_bad_input() {
     for code in -1..10 {
         let msg = unsafe { CStr::from_ptr(sbrdf_error_message(code)) };
         assert!(!msg.to_bytes().is_empty());
+    }
+}
+
+#[test]
+fn c_sampling_agrees_with_the_rust_decoder_and_refuses_bad_input() {
+    let path = golden("ggx_3inc_default.sbrdf");
+    let c_path = CString::new(path.to_str().unwrap()).unwrap();
+    let mut h: *mut sbrdf_t = std::ptr::null_mut();
+    assert_eq!(
+        unsafe { sbrdf_open_file(c_path.as_ptr(), &mut h) },
+        SBRDF_OK
+    );
+    let dec = sbrdf::Decoder::open(&path).unwrap();
+    let wi = [0.3f32, 0.2, 0.932_737_9];
+    for (u1, u2) in [
+        (0.1f32, 0.7f32),
+        (0.5, 0.5),
+        (0.95, 0.02),
+        (0.0, 0.0),
+        (1.0, 1.0),
+    ] {
+        let (mut wo, mut pdf, mut again) = ([0.0f32; 3], 0.0f32, 0.0f32);
+        assert_eq!(
+            unsafe { sbrdf_sample(h, wi.as_ptr(), u1, u2, wo.as_mut_ptr(), &mut pdf) },
+            SBRDF_OK
+        );
+        let s = dec
+            .sample(wi, [u1, u2])
+            .expect("a direction above the horizon");
+        assert_eq!((wo, pdf), (s.wo, s.pdf), "u = ({u1}, {u2})");
+        assert!(pdf > 0.0 && wo[2] >= 0.0);
+        assert_eq!(
+            unsafe { sbrdf_pdf(h, wi.as_ptr(), wo.as_ptr(), &mut again) },
+            SBRDF_OK
+        );
+        assert_eq!(
+            again, pdf,
+            "u = ({u1}, {u2}): sbrdf_pdf differs from the sample's"
+        );
+    }
+    // Below the horizon there is nothing to draw: a zero direction and density, not an error.
+    let below = [0.0f32, 0.6, -0.8];
+    let (mut wo, mut pdf) = ([1.0f32; 3], 1.0f32);
+    assert_eq!(
+        unsafe { sbrdf_sample(h, below.as_ptr(), 0.5, 0.5, wo.as_mut_ptr(), &mut pdf) },
+        SBRDF_OK
+    );
+    assert_eq!((wo, pdf), ([0.0; 3], 0.0));
+    assert_eq!(
+        unsafe { sbrdf_pdf(h, below.as_ptr(), wi.as_ptr(), &mut pdf) },
+        SBRDF_OK
+    );
+    assert_eq!(pdf, 0.0);
+    let nan = [f32::NAN, 0.0, 1.0];
+    unsafe {
+        assert_eq!(
+            sbrdf_sample(h, nan.as_ptr(), 0.5, 0.5, wo.as_mut_ptr(), &mut pdf),
+            SBRDF_ERR_ARGUMENT
+        );
+        assert_eq!(
+            sbrdf_sample(h, wi.as_ptr(), f32::NAN, 0.5, wo.as_mut_ptr(), &mut pdf),
+            SBRDF_ERR_ARGUMENT
+        );
+        assert_eq!(
+            sbrdf_pdf(h, wi.as_ptr(), nan.as_ptr(), &mut pdf),
+            SBRDF_ERR_ARGUMENT
+        );
+        assert_eq!(
+            sbrdf_sample(h, wi.as_ptr(), 0.5, 0.5, std::ptr::null_mut(), &mut pdf),
+            SBRDF_ERR_NULL
+        );
+        assert_eq!(
+            sbrdf_pdf(std::ptr::null(), wi.as_ptr(), wi.as_ptr(), &mut pdf),
+            SBRDF_ERR_NULL
+        );
+        assert_eq!(
+            sbrdf_pdf(h, wi.as_ptr(), wi.as_ptr(), std::ptr::null_mut()),
+            SBRDF_ERR_NULL
+        );
+        sbrdf_close(h);
     }
 }

@@ -18,13 +18,50 @@ fn direct_sh_level_4_matches_fig_4() {
             o.peak = PeakMode::None;
             o.sh_level = Some(4);
         });
+        // The paper's figure is that of the plain SH series; the decoder clamps its negative
+        // values at 0, which can only bring it closer to the (positive) material, and the
+        // stored figure is the clamped one.
+        let plain = plain_series_error(&e.material, &set);
         let tol = if want < 0.1 { 0.002 } else { 0.01 };
         assert!(
-            (e.rel_error - want).abs() <= tol,
-            "n = {n}: direct SH error {:.4}, expected ≈ {want}",
+            (plain - want).abs() <= tol,
+            "n = {n}: direct SH error {plain:.4}, expected ≈ {want}"
+        );
+        assert!(e.rel_error <= plain + 1e-6, "{} vs {plain}", e.rel_error);
+        eprintln!(
+            "n = {n}: direct SH error {plain:.4}, {:.4} as decoded (clamped at 0)",
             e.rel_error
         );
     }
+}
+
+/// The relative error of an SH-only record's series Σ_k Σ_j A(k, j)·Y_j(ω)·B_k(λ) as it stands,
+/// negative values included: what the paper measured.
+fn plain_series_error(m: &sbrdf::Material, set: &sbrdf::samples::SampleSet) -> f64 {
+    let r = &m.records[0];
+    assert!(r.lobes.is_empty());
+    let sh = sbrdf::sh::ShBasis::new(r.sh_level);
+    let p = sh.count();
+    let mut y = vec![0.0; p];
+    let mut b = vec![0.0; m.spectral.terms];
+    let s = &set.incidences[0];
+    let (mut approx, mut truth) = (Vec::new(), Vec::new());
+    for (d, row) in s
+        .directions
+        .iter()
+        .zip(s.values.chunks(set.wavelengths.len()))
+    {
+        sh.eval(sbrdf::angles::dir_from_deg(d[0], d[1]), &mut y);
+        for (&l, &v) in set.wavelengths.iter().zip(row) {
+            m.spectral.eval(l, &mut b);
+            let rho: f64 = (0..r.terms)
+                .map(|k| b[k] * (0..p).map(|j| r.sh[k * p + j] as f64 * y[j]).sum::<f64>())
+                .sum();
+            approx.push(rho);
+            truth.push(v);
+        }
+    }
+    rel_l2(&approx, &truth)
 }
 
 #[test]

@@ -266,9 +266,13 @@ fn golden_files_decode_to_their_source_material() {
                 truth.extend((0..wl.len()).map(|w| truth_fn(inc, (d[0], d[1]), w)));
             }
             let e = rel_l2(&approx, &truth);
-            // The CSV holds the samples to ~1e-16, so the error matches to float precision.
+            // The CSV holds the samples to ~1e-16, so the error would match to float precision,
+            // but these files were written before decoders clamped negative values at 0
+            // (spec/EVALUATION.md, "Reconstruction", step 5): a record whose reconstruction
+            // dips below 0 at its samples (the SH-only baseline's) now decodes closer to its
+            // non-negative source than its stored figure says. Never further from it.
             assert!(
-                (e - r.rel_error as f64).abs() <= 1e-5 * e.max(1e-3),
+                e - r.rel_error as f64 <= 1e-5 * e.max(1e-3),
                 "{file} record {i}: decoded error {e} vs stored {}",
                 r.rel_error
             );
