@@ -71,6 +71,80 @@ pub fn read_inputs_from_bytes(files: &[(String, Vec<u8>)]) -> Result<(SampleSet,
     Ok((set, report))
 }
 
+/// The column names of the long layout, in order: the columns [`samples_from_columns`] takes.
+pub const COLUMNS: [&str; 6] = [
+    "theta_i",
+    "phi_i",
+    "theta_o",
+    "phi_o",
+    "wavelength_nm",
+    "value",
+];
+
+/// Samples given as six equally long columns (the long CSV layout's, in [`COLUMNS`] order),
+/// held in memory under the name `name`: the same checks as a CSV file, errors naming
+/// `name[index]`.
+pub fn samples_from_columns(name: &str, columns: [&[f64]; 6]) -> Result<(SampleSet, ReadReport)> {
+    let n = columns[0].len();
+    if let Some(c) = (1..6).find(|&c| columns[c].len() != n) {
+        return Err(Error::Input(format!(
+            "{name}: column {} has {} values but {} has {n}",
+            COLUMNS[c],
+            columns[c].len(),
+            COLUMNS[0]
+        )));
+    }
+    if n == 0 {
+        return Err(Error::Input(format!("{name}: no samples")));
+    }
+    let mut samples = Vec::with_capacity(n);
+    // Row i of six parallel columns: an index reads clearer than six zipped iterators.
+    #[allow(clippy::needless_range_loop)]
+    for i in 0..n {
+        let here = |m: String| Error::Input(format!("{name}[{i}]: {m}"));
+        let mut a = [0.0; 4];
+        for (j, v) in a.iter_mut().enumerate() {
+            let x = columns[j][i];
+            if !x.is_finite() {
+                return Err(here(format!("{} = {x} is not a finite number", COLUMNS[j])));
+            }
+            *v = if j % 2 == 0 {
+                if !(0.0..=90.0).contains(&x) {
+                    return Err(here(format!(
+                        "{} = {x} is outside [0, 90] degrees",
+                        COLUMNS[j]
+                    )));
+                }
+                x + 0.0
+            } else {
+                crate::angles::wrap_phi(x)
+            };
+        }
+        let (l, v) = (columns[4][i], columns[5][i]);
+        if !(l.is_finite() && l > 0.0) {
+            return Err(here(format!(
+                "wavelength_nm = {l} is not a positive number"
+            )));
+        }
+        if !v.is_finite() {
+            return Err(here(format!("value = {v} is not a finite number")));
+        }
+        samples.push(Sample {
+            key: [
+                a[0].to_bits(),
+                a[1].to_bits(),
+                a[2].to_bits(),
+                a[3].to_bits(),
+                l.to_bits(),
+            ],
+            value: v,
+            file: 0,
+            place: Place::Index(i as u64),
+        });
+    }
+    build_sample_set(samples, &[name.to_string()])
+}
+
 /// Appends the samples of one EXR slice; returns how many pixels were marked missing.
 fn collect_exr(fi: usize, name: &str, bytes: &[u8], samples: &mut Vec<Sample>) -> Result<usize> {
     let slice = exr_io::read_slice(name, bytes)?;
@@ -110,6 +184,8 @@ pub(crate) enum Place {
     Line(u64),
     /// An EXR pixel.
     Pixel { row: u32, column: u32 },
+    /// An index into arrays handed over in memory (the Python binding's columns), 0-based.
+    Index(u64),
 }
 
 /// What reading inputs produced besides the samples.
@@ -139,6 +215,7 @@ pub(crate) fn build_sample_set(
                 names[s.file as usize]
             )
         }
+        Place::Index(i) => format!("{}[{i}]", names[s.file as usize]),
     };
     let f = f64::from_bits;
     for w in samples.windows(2) {

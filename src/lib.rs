@@ -29,9 +29,13 @@ pub mod encoder;
 #[cfg(feature = "encode")]
 pub mod fit;
 #[cfg(feature = "encode")]
+pub mod info;
+#[cfg(feature = "encode")]
 pub mod joint;
 #[cfg(feature = "encode")]
 pub mod samples;
+#[cfg(feature = "encode")]
+pub mod subset;
 
 #[cfg(feature = "cli")]
 pub mod csv_input;
@@ -44,7 +48,13 @@ pub mod input;
 #[cfg(feature = "cli")]
 pub mod output;
 #[cfg(feature = "cli")]
+pub mod paper_figures;
+#[cfg(feature = "cli")]
+pub mod settings;
+#[cfg(feature = "cli")]
 pub mod synth;
+#[cfg(feature = "cli")]
+pub mod tradeoff;
 
 pub use decoder::Decoder;
 pub use error::{Error, Result};

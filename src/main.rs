@@ -1,13 +1,15 @@
 //! `sbrdf`: the command-line front end. All logic lives in the library; this file parses
 //! arguments, calls it, and turns errors into messages and exit codes.
 
+mod cli_figures;
+
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use sbrdf::csv_input::{self, Layout};
-use sbrdf::encoder::{encode, EncodeOptions};
-use sbrdf::fit::{CriticalAngle, PeakMode};
+use sbrdf::fit::PeakMode;
 use sbrdf::joint::LobeFamily;
 use sbrdf::output::{write_atomic, write_bytes_atomic};
 use sbrdf::samples::SampleSet;
+use sbrdf::settings::{self, EncodeSettings};
 use sbrdf::synth::{paper_grid, sample_material, Phong, SpectrumTable};
 use sbrdf::{Decoder, Error, Precision, Result};
 use std::path::{Path, PathBuf};
@@ -68,6 +70,79 @@ answered by interpolating the neighbouring records' parameters (isotropic files:
     /// Generate test materials.
     #[command(subcommand)]
     Synth(SynthCommand),
+    /// Draw what a file stores at one incidence: a coefficient over the outgoing hemisphere
+    /// (background and peak), beside the original samples, and spectra at chosen directions.
+    Plot(cli_figures::PlotArgs),
+    /// Render a sphere lit by a point light (D65), spectrally, to an sRGB picture.
+    Preview(cli_figures::PreviewArgs),
+    /// Regenerate the data and plots of the paper's Figs. 4, 6 and 7, paper mode beside the
+    /// default mode.
+    PaperFigures(cli_figures::PaperFiguresArgs),
+    /// Derive a smaller file from an existing one (no samples needed): fewer incidences,
+    /// wavelengths, spectral terms or SH functions, or f16 storage.
+    #[command(
+        after_help = "Example (a scene rendering 450–650 nm with lights below 60°):\n  \
+sbrdf subset m.sbrdf -o scene.sbrdf --wavelengths 450:650 --incident-max 60 --precision f16\n\n\
+Every cut truncates (incidences, wavelengths of a data-derived basis, spectral terms, SH \
+functions) or rounds (f16); an analytic basis cut to fewer wavelengths is re-tabulated at the kept \
+ones (exact there, linear between). Nothing is re-fitted: there are no samples. Each record's \
+stored error becomes an upper bound on its new error, from its recorded error and the change the \
+cuts made (measured against the original at its stored sample positions). Re-encoding from the samples with \
+`encode --wavelengths --incident-max` gives the best file of a size; subset gives one at once."
+    )]
+    Subset(SubsetArgs),
+    /// Encode the input over a sweep of settings and report size, error and speed of each.
+    #[command(after_help = "Example:\n  \
+sbrdf tradeoff material.csv --csv report.csv --plot report.svg --quick\n\n\
+Each row's encode_options column holds the `sbrdf encode` options that reproduce it. Errors are \
+measured against the input samples as `decode --like` does; eval times are the best of five runs \
+of 4096 random queries on this machine. pareto = 1 marks the rows no other row beats in both size \
+and error.")]
+    Tradeoff(TradeoffArgs),
+}
+
+#[derive(Args)]
+struct TradeoffArgs {
+    /// Inputs, as for `encode` (CSV, EXR slices, folders).
+    #[arg(required = true)]
+    inputs: Vec<PathBuf>,
+    /// The report: one row per setting.
+    #[arg(long, value_name = "REPORT.csv")]
+    csv: PathBuf,
+    /// The plot: error against bytes with the Pareto front, and decode time.
+    #[arg(long, value_name = "REPORT.svg")]
+    plot: Option<PathBuf>,
+    /// 12 settings instead of 24.
+    #[arg(long)]
+    quick: bool,
+}
+
+#[derive(Args)]
+struct SubsetArgs {
+    input: PathBuf,
+    /// Output .sbrdf file (written atomically).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Keep wavelengths within MIN:MAX nm.
+    #[arg(long, value_name = "MIN:MAX")]
+    wavelengths: Option<String>,
+    /// Keep incident directions with θi ≤ DEG.
+    #[arg(long, value_name = "DEG")]
+    incident_max: Option<f64>,
+    /// Keep at most K spectral terms.
+    #[arg(long, value_name = "K")]
+    terms: Option<usize>,
+    /// Keep SH functions up to level L.
+    #[arg(long, value_name = "L")]
+    sh_level: Option<usize>,
+    /// Store coefficients in f16 (f32 records are rounded).
+    #[arg(long, value_enum)]
+    precision: Option<SubsetPrecisionArg>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SubsetPrecisionArg {
+    F16,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -161,6 +236,12 @@ struct EncodeArgs {
     /// Do not store the outgoing sample positions (smaller file; `decode` then needs --like).
     #[arg(long)]
     no_sample_positions: bool,
+    /// Keep only the input's wavelengths within MIN:MAX nm (what a scene renders).
+    #[arg(long, value_name = "MIN:MAX")]
+    wavelengths: Option<String>,
+    /// Keep only incident directions with θi ≤ DEG (what a scene's lights reach).
+    #[arg(long, value_name = "DEG")]
+    incident_max: Option<f64>,
 }
 
 #[derive(Args)]
@@ -338,6 +419,11 @@ fn run(cli: Cli) -> Result<()> {
         Command::Synth(SynthCommand::Phong(a)) => cmd_phong(a),
         Command::Synth(SynthCommand::Ggx(a)) => cmd_ggx(a),
         Command::Synth(SynthCommand::Abc(a)) => cmd_abc(a),
+        Command::Plot(a) => cli_figures::cmd_plot(a),
+        Command::Preview(a) => cli_figures::cmd_preview(a),
+        Command::PaperFigures(a) => cli_figures::cmd_paper_figures(a),
+        Command::Subset(a) => cmd_subset(a),
+        Command::Tradeoff(a) => cmd_tradeoff(a),
     }
 }
 
@@ -357,56 +443,8 @@ fn parse_pair(flag: &str, s: &str) -> Result<(f64, f64)> {
 }
 
 /// A fraction like `0.01` or a percentage like `1%`.
-fn parse_fraction(s: &str) -> Result<f64> {
-    let bad = || {
-        Error::Parameter(format!(
-            "--max-error '{s}': expected a fraction like 0.01 or 1%"
-        ))
-    };
-    let t = s.trim();
-    let v = match t.strip_suffix('%') {
-        Some(p) => p.trim().parse::<f64>().map_err(|_| bad())? / 100.0,
-        None => t.parse::<f64>().map_err(|_| bad())?,
-    };
-    if !(v.is_finite() && v > 0.0) {
-        return Err(bad());
-    }
-    Ok(v)
-}
-
 fn cmd_encode(a: EncodeArgs) -> Result<()> {
-    let critical_angle = match a.critical_angle.trim() {
-        "auto" => CriticalAngle::Auto,
-        s => CriticalAngle::Fixed(
-            0.0 + s.parse::<f64>().map_err(|_| {
-                Error::Parameter(format!(
-                    "--critical-angle '{s}': expected degrees (like 37) or 'auto'"
-                ))
-            })?,
-        ),
-    };
-    let mut provenance = Vec::new();
-    for kv in &a.metadata {
-        let (k, v) = kv
-            .split_once('=')
-            .ok_or_else(|| Error::Parameter(format!("--metadata '{kv}': expected KEY=VALUE")))?;
-        provenance.push((k.trim().to_string(), v.to_string()));
-    }
-    let (set, report) = sbrdf::input::read_inputs(&a.inputs)?;
-    if report.missing_pixels > 0 {
-        eprintln!(
-            "sbrdf: note: {} EXR pixels marked missing (NaN or mask 0) were skipped",
-            report.missing_pixels
-        );
-    }
-    if report.negative_values > 0 {
-        eprintln!(
-            "sbrdf: warning: {} of {} samples are negative (kept as measured)",
-            report.negative_values,
-            set.sample_count()
-        );
-    }
-    let opts = EncodeOptions {
+    let settings = EncodeSettings {
         basis: match a.basis {
             BasisArg::Fourier => sbrdf::SpectralBasis::PeriodicFourier,
             BasisArg::Cosine => sbrdf::SpectralBasis::Cosine,
@@ -419,7 +457,7 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
             PeakArg::None => PeakMode::None,
             PeakArg::Joint => PeakMode::Joint,
         },
-        critical_angle,
+        critical_angle: settings::parse_critical_angle(&a.critical_angle)?,
         precision: match a.precision {
             PrecisionArg::F32 => Precision::F32,
             PrecisionArg::F16 => Precision::F16,
@@ -434,48 +472,32 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
                 LobeArg::MicrofacetSin2 => LobeFamily::MicrofacetSin2,
             })
             .collect(),
-        max_error: match (&a.max_error, a.peak) {
-            (Some(e), _) => Some(parse_fraction(e)?),
-            (None, PeakArg::Joint) => Some(sbrdf::encoder::DEFAULT_MAX_ERROR),
-            (None, _) => None,
-        },
-        sample_positions: !a.no_sample_positions,
-        provenance,
-        inputs: a.inputs.iter().map(|p| p.display().to_string()).collect(),
-    };
-    let encoded = encode(&set, &opts)?;
-    for note in &encoded.notes {
-        eprintln!("sbrdf: note: {note}");
-    }
-    if !encoded.unmet.is_empty() {
-        let m = &encoded.material;
-        let list: Vec<String> = encoded
-            .unmet
+        max_error: a
+            .max_error
+            .as_deref()
+            .map(|e| settings::parse_fraction("max-error", e))
+            .transpose()?,
+        best_effort: a.best_effort,
+        metadata: a
+            .metadata
             .iter()
-            .map(|&i| {
-                let r = &m.records[i];
-                format!("({}, {}): {:.4}", r.theta_i, r.phi_i, r.rel_error)
-            })
-            .collect();
-        let msg = format!(
-            "the error budget {} cannot be met at {} incident direction(s); best errors reached: {}",
-            opts.max_error.unwrap(),
-            list.len(),
-            list.join(", ")
-        );
-        if !a.best_effort && a.max_error.is_some() {
-            return Err(Error::Parameter(format!(
-                "{msg}. Nothing written; raise the budget or add --best-effort"
-            )));
-        }
-        let why = if a.best_effort {
-            "--best-effort"
-        } else {
-            "the default budget is best effort"
-        };
-        eprintln!("sbrdf: warning: {msg} (written anyway: {why})");
+            .map(|kv| settings::parse_metadata(kv))
+            .collect::<Result<_>>()?,
+        no_sample_positions: a.no_sample_positions,
+        wavelengths: a
+            .wavelengths
+            .as_deref()
+            .map(|w| settings::parse_window("wavelengths", w))
+            .transpose()?,
+        incident_max: a.incident_max,
+    };
+    let (set, report) = sbrdf::input::read_inputs(&a.inputs)?;
+    let inputs: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
+    let outcome = settings::encode_samples(set, &report, &inputs, &settings)?;
+    for m in &outcome.messages {
+        eprintln!("sbrdf: {m}");
     }
-    let bytes = sbrdf::write_material(&encoded.material)?;
+    let (bytes, encoded, set) = (outcome.bytes, outcome.encoded, outcome.samples);
     write_bytes_atomic(&a.output, &bytes)?;
     let worst = encoded
         .material
@@ -496,6 +518,95 @@ fn cmd_encode(a: EncodeArgs) -> Result<()> {
         worst.rel_error,
         worst.theta_i,
         worst.phi_i
+    );
+    Ok(())
+}
+
+fn cmd_tradeoff(a: TradeoffArgs) -> Result<()> {
+    if let Some(p) = &a.plot {
+        if sbrdf::figures::ImageKind::of(p)? != sbrdf::figures::ImageKind::Svg {
+            return Err(Error::Parameter(format!(
+                "--plot {}: the trade-off plot is written as SVG (name it .svg)",
+                p.display()
+            )));
+        }
+    }
+    let (set, _) = sbrdf::input::read_inputs(&a.inputs)?;
+    let inputs: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
+    let settings = sbrdf::tradeoff::sweep(a.quick, set.wavelengths.len());
+    // A progress bar on stderr; indicatif draws nothing when stderr is not a terminal.
+    let bar = indicatif::ProgressBar::new(settings.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} settings  {msg}")
+            .expect("a valid template"),
+    );
+    let mut rows = Vec::with_capacity(settings.len());
+    for s in &settings {
+        bar.set_message(s.cli_options().join(" "));
+        rows.push(sbrdf::tradeoff::measure(&set, &inputs, s)?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    sbrdf::tradeoff::mark_pareto(&mut rows);
+    write_atomic(&a.csv, |w| sbrdf::tradeoff::write_csv(&rows, w))?;
+    if let Some(p) = &a.plot {
+        let title = format!("sbrdf tradeoff: {}", inputs.join(", "));
+        let svg = sbrdf::tradeoff::plot_svg(&rows, &title)?;
+        write_bytes_atomic(p, svg.as_bytes())?;
+    }
+    let front = rows.iter().filter(|r| r.pareto).count();
+    eprintln!(
+        "sbrdf: {} settings measured, {front} on the Pareto front; report in {}",
+        rows.len(),
+        a.csv.display()
+    );
+    Ok(())
+}
+
+fn cmd_subset(a: SubsetArgs) -> Result<()> {
+    let dec = Decoder::open(&a.input)?;
+    let original = dec.into_material();
+    let opts = sbrdf::subset::SubsetOptions {
+        wavelengths: a
+            .wavelengths
+            .as_deref()
+            .map(|w| settings::parse_window("wavelengths", w))
+            .transpose()?,
+        incident_max: a.incident_max,
+        terms: a.terms,
+        sh_level: a.sh_level,
+        precision: a.precision.map(|_| Precision::F16),
+    };
+    let (m, report) = sbrdf::subset::subset(&original, &opts)?;
+    let before = sbrdf::write_material(&original)?.len();
+    let bytes = sbrdf::write_material(&m)?;
+    write_bytes_atomic(&a.output, &bytes)?;
+    for action in &report.actions {
+        eprintln!("sbrdf: {action}");
+    }
+    if report.actions.is_empty() {
+        eprintln!("sbrdf: nothing to cut: the file is copied unchanged");
+    }
+    let place = if report.at_stored_positions {
+        "at the stored sample positions"
+    } else {
+        "on a 5° grid (the file stores no sample positions)"
+    };
+    eprintln!(
+        "sbrdf: error per incidence: recorded, change made by the cuts ({place}), and the \
+         upper bound now stored:"
+    );
+    for r in &report.records {
+        eprintln!(
+            "  ({}, {}): recorded {:.5}, change {:.5}, bound {:.5}",
+            r.theta_i, r.phi_i, r.recorded, r.change, r.bound
+        );
+    }
+    eprintln!(
+        "sbrdf: wrote {}: {} bytes (was {before}, {:.0}%)",
+        a.output.display(),
+        bytes.len(),
+        100.0 * bytes.len() as f64 / before as f64
     );
     Ok(())
 }
@@ -728,43 +839,8 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         .len();
     let dec = Decoder::open(&a.input)?;
     let m = dec.material();
-    let meta: serde_json::Value = m
-        .metadata
-        .as_deref()
-        .map(|t| serde_json::from_str(t).unwrap_or_else(|_| serde_json::Value::from(t)))
-        .unwrap_or(serde_json::Value::Null);
     if a.json {
-        let records: Vec<_> = m
-            .records
-            .iter()
-            .map(|r| {
-                serde_json::json!({
-                    "terms": r.terms, "sh_level": r.sh_level, "precision": r.precision.name(),
-                    "theta_i": r.theta_i, "phi_i": r.phi_i,
-                    "theta_p": r.theta_p, "phi_p": r.phi_p,
-                    "critical_angle": r.critical_angle,
-                    "lobes": r.lobes.iter().map(|l| l.kind.name()).collect::<Vec<_>>(),
-                    "rel_error": r.rel_error,
-                })
-            })
-            .collect();
-        let v = serde_json::json!({
-            "file": a.input.display().to_string(),
-            "bytes": len,
-            "format_version": format!("{}.{}", sbrdf::format::VERSION_MAJOR, m.version_minor),
-            "spectral_basis": m.spectral.basis.name(),
-            "terms": m.spectral.terms,
-            "lambda_min": m.spectral.lambda_min,
-            "lambda_max": m.spectral.lambda_max,
-            "wavelengths": m.wavelengths,
-            "sh_level": m.sh_level,
-            "precision": m.precision_name(),
-            "isotropic": m.isotropic,
-            "incident_count": m.records.len(),
-            "sample_positions": m.sample_positions.is_some(),
-            "records": records,
-            "metadata": meta,
-        });
+        let v = sbrdf::info::to_json(m, &a.input.display().to_string(), len);
         println!("{}", serde_json::to_string_pretty(&v).unwrap());
         return Ok(());
     }
@@ -815,7 +891,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             r.rel_error
         );
     }
-    if !meta.is_null() {
+    if let Some(meta) = &m.metadata {
         println!("metadata:       {meta}");
     }
     Ok(())

@@ -95,4 +95,52 @@ impl SampleSet {
         }
         Ok(())
     }
+
+    /// The samples a scene needs: wavelengths within [min, max] nm and incidences with
+    /// θi ≤ `incident_max` degrees. Refuses a selection that keeps nothing.
+    pub fn restricted(
+        &self,
+        wavelengths: Option<(f64, f64)>,
+        incident_max: Option<f64>,
+    ) -> Result<SampleSet, String> {
+        let keep_w: Vec<usize> = (0..self.wavelengths.len())
+            .filter(|&w| {
+                wavelengths.is_none_or(|(lo, hi)| (lo..=hi).contains(&self.wavelengths[w]))
+            })
+            .collect();
+        if keep_w.is_empty() {
+            let (lo, hi) = wavelengths.unwrap_or_default();
+            return Err(format!(
+                "--wavelengths {lo}:{hi} keeps none of the input's wavelengths ({}–{} nm)",
+                self.wavelengths[0],
+                self.wavelengths[self.wavelengths.len() - 1]
+            ));
+        }
+        let w = self.wavelengths.len();
+        let incidences: Vec<IncidentSamples> = self
+            .incidences
+            .iter()
+            .filter(|s| incident_max.is_none_or(|m| s.theta_i <= m))
+            .map(|s| IncidentSamples {
+                theta_i: s.theta_i,
+                phi_i: s.phi_i,
+                directions: s.directions.clone(),
+                values: s
+                    .values
+                    .chunks(w)
+                    .flat_map(|spectrum| keep_w.iter().map(move |&i| spectrum[i]))
+                    .collect(),
+            })
+            .collect();
+        if incidences.is_empty() {
+            return Err(format!(
+                "--incident-max {}: no incidence of the input has θi ≤ {0}°",
+                incident_max.unwrap_or_default()
+            ));
+        }
+        Ok(SampleSet {
+            wavelengths: keep_w.iter().map(|&i| self.wavelengths[i]).collect(),
+            incidences,
+        })
+    }
 }

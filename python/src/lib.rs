@@ -1,0 +1,332 @@
+//! The `sbrdf._sbrdf` extension module: a thin layer over the `sbrdf` crate. Decoding, encoding,
+//! validation and messages are the crate's; this file only moves arrays and errors across.
+
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLikeDyn, PyArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList, PyTuple};
+use sbrdf::settings::{encode_samples, EncodeSettings};
+use sbrdf::Decoder;
+use std::path::PathBuf;
+
+create_exception!(
+    _sbrdf,
+    Error,
+    PyValueError,
+    "Bad input or a damaged file; the message is the command line's."
+);
+
+fn err(e: sbrdf::Error) -> PyErr {
+    Error::new_err(e.to_string())
+}
+
+/// `Material.sample`'s result: directions (N, 3) and densities (N,).
+type Sampled<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>);
+
+/// An opened .sbrdf file: evaluate, sample, describe.
+#[pyclass(module = "sbrdf", frozen)]
+struct Material {
+    dec: Decoder,
+    name: String,
+    bytes: u64,
+}
+
+/// N unit vectors from an array of shape (N, 3) or (3,) (then N = 1).
+fn vectors(name: &str, a: &PyArrayLikeDyn<'_, f32, AllowTypeChange>) -> PyResult<Vec<[f32; 3]>> {
+    let v = a.as_array();
+    let shape = v.shape().to_vec();
+    let rows = match shape.as_slice() {
+        [3] => 1,
+        [n, 3] => *n,
+        _ => {
+            return Err(Error::new_err(format!(
+                "{name}: expected shape (N, 3) or (3,), got {shape:?}"
+            )))
+        }
+    };
+    let flat: Vec<f32> = v.iter().copied().collect();
+    Ok((0..rows)
+        .map(|i| [flat[3 * i], flat[3 * i + 1], flat[3 * i + 2]])
+        .collect())
+}
+
+/// Pairs (wi, wo), broadcasting a single vector against N.
+fn pairs(wi: &[[f32; 3]], wo: &[[f32; 3]]) -> PyResult<usize> {
+    match (wi.len(), wo.len()) {
+        (a, b) if a == b => Ok(a),
+        (1, b) => Ok(b),
+        (a, 1) => Ok(a),
+        (a, b) => Err(Error::new_err(format!(
+            "wi has {a} directions and wo {b}: give as many of each, or one of either"
+        ))),
+    }
+}
+
+#[pymethods]
+impl Material {
+    /// Opens a file held in memory (the bytes of a .sbrdf file).
+    #[staticmethod]
+    fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
+        let owned = data.to_vec();
+        let dec = py
+            .allow_threads(|| Decoder::from_bytes(&owned))
+            .map_err(err)?;
+        Ok(Material {
+            dec,
+            name: "<bytes>".into(),
+            bytes: data.len() as u64,
+        })
+    }
+
+    /// ρ(wi, wo, λ) in 1/sr, shape (N, M), float32: wi and wo are unit vectors in the local
+    /// frame (z the normal; wi toward the light, wo toward the viewer), shape (N, 3) or (3,);
+    /// wavelengths in nm, shape (M,). Below the horizon, 0. The GIL is released while it runs.
+    fn eval<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
+        wo: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
+        wavelengths: PyArrayLike1<'py, f32, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let wi = vectors("wi", &wi)?;
+        let wo = vectors("wo", &wo)?;
+        let n = pairs(&wi, &wo)?;
+        let wl: Vec<f32> = wavelengths.as_array().iter().copied().collect();
+        let m = wl.len();
+        let dec = &self.dec;
+        let out = py.allow_threads(|| {
+            let mut out = vec![0.0f32; n * m];
+            if m > 0 {
+                for (i, row) in out.chunks_mut(m).enumerate() {
+                    let a = wi[if wi.len() == 1 { 0 } else { i }];
+                    let b = wo[if wo.len() == 1 { 0 } else { i }];
+                    dec.eval(a, b, &wl, row);
+                }
+            }
+            out
+        });
+        PyArray1::from_vec(py, out).reshape([n, m])
+    }
+
+    /// Importance sampling of wo for wi (shape (N, 3) or (3,)) from uniform numbers u in
+    /// [0, 1)² (shape (N, 2) or (2,)), from the spectrum-averaged BRDF × cos θo: returns
+    /// (wo of shape (N, 3), pdf of shape (N,)), the density over solid angle in 1/sr; pdf 0 and
+    /// wo 0 where no direction can be drawn (wi below the horizon). Releases the GIL.
+    fn sample<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
+        u: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
+    ) -> PyResult<Sampled<'py>> {
+        let wi = vectors("wi", &wi)?;
+        let uv = u.as_array();
+        let shape = uv.shape().to_vec();
+        let nu = match shape.as_slice() {
+            [2] => 1,
+            [n, 2] => *n,
+            _ => {
+                return Err(Error::new_err(format!(
+                    "u: expected shape (N, 2) or (2,), got {shape:?}"
+                )))
+            }
+        };
+        let flat: Vec<f32> = uv.iter().copied().collect();
+        let us: Vec<[f32; 2]> = (0..nu).map(|i| [flat[2 * i], flat[2 * i + 1]]).collect();
+        let n = match (wi.len(), nu) {
+            (a, b) if a == b => a,
+            (1, b) => b,
+            (a, 1) => a,
+            (a, b) => {
+                return Err(Error::new_err(format!(
+                    "wi has {a} directions and u {b} pairs: give as many of each, or one of either"
+                )))
+            }
+        };
+        let dec = &self.dec;
+        let (wos, pdfs) = py.allow_threads(|| {
+            let mut wos = vec![0.0f32; 3 * n];
+            let mut pdfs = vec![0.0f32; n];
+            for i in 0..n {
+                let a = wi[if wi.len() == 1 { 0 } else { i }];
+                let b = us[if us.len() == 1 { 0 } else { i }];
+                if let Some(s) = dec.sample(a, b) {
+                    wos[3 * i..3 * i + 3].copy_from_slice(&s.wo);
+                    pdfs[i] = s.pdf;
+                }
+            }
+            (wos, pdfs)
+        });
+        Ok((
+            PyArray1::from_vec(py, wos).reshape([n, 3])?,
+            PyArray1::from_vec(py, pdfs),
+        ))
+    }
+
+    /// The density (1/sr) with which `sample` draws wo for wi; shapes as for `eval`, result (N,).
+    fn pdf<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
+        wo: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let wi = vectors("wi", &wi)?;
+        let wo = vectors("wo", &wo)?;
+        let n = pairs(&wi, &wo)?;
+        let dec = &self.dec;
+        let out = py.allow_threads(|| {
+            (0..n)
+                .map(|i| {
+                    dec.pdf(
+                        wi[if wi.len() == 1 { 0 } else { i }],
+                        wo[if wo.len() == 1 { 0 } else { i }],
+                    )
+                })
+                .collect::<Vec<f32>>()
+        });
+        Ok(PyArray1::from_vec(py, out))
+    }
+
+    /// The description `sbrdf info --json` prints, as a dict.
+    #[getter]
+    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let text = sbrdf::info::to_json(self.dec.material(), &self.name, self.bytes).to_string();
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
+    /// The file's wavelength samples, nm.
+    #[getter]
+    fn wavelengths<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f32>> {
+        PyArray1::from_vec(py, self.dec.material().wavelengths.clone())
+    }
+
+    fn __repr__(&self) -> String {
+        let m = self.dec.material();
+        format!(
+            "<sbrdf.Material {}: {} incidences, {} wavelengths, {} bytes>",
+            self.name,
+            m.records.len(),
+            m.wavelengths.len(),
+            self.bytes
+        )
+    }
+}
+
+/// Opens a .sbrdf file.
+#[pyfunction]
+fn open(py: Python<'_>, path: PathBuf) -> PyResult<Material> {
+    let name = path.display().to_string();
+    let dec = py.allow_threads(|| Decoder::open(&path)).map_err(err)?;
+    let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    Ok(Material { dec, name, bytes })
+}
+
+/// An option value as the command line would spell it.
+fn option_text(name: &str, v: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+    if let Ok(b) = v.extract::<bool>() {
+        return Ok(vec![b.to_string()]);
+    }
+    if let Ok(d) = v.downcast::<PyDict>() {
+        // metadata={"source": "lab 4"}: one KEY=VALUE each.
+        return d
+            .iter()
+            .map(|(k, v)| Ok(format!("{}={}", k.str()?, v.str()?)))
+            .collect();
+    }
+    if v.downcast::<PyList>().is_ok() || v.downcast::<PyTuple>().is_ok() {
+        let items: Vec<String> = v
+            .try_iter()?
+            .map(|x| Ok(x?.str()?.to_string()))
+            .collect::<PyResult<_>>()?;
+        return Ok(if name == "metadata" {
+            items
+        } else {
+            vec![items.join(",")]
+        });
+    }
+    Ok(vec![v.str()?.to_string()])
+}
+
+/// Encodes samples into a .sbrdf file at `out_path` (written atomically) and returns a summary
+/// dict (bytes, rel_error, worst_error, messages). `samples` is a dict of equally long arrays
+/// named like the long CSV layout's columns (theta_i, phi_i, theta_o, phi_o in degrees,
+/// wavelength_nm, value in 1/sr), or a path (CSV, EXR slice, folder) or a list of paths.
+/// Keyword options are `sbrdf encode`'s, with `_` for `-`: basis="cosine", terms=5,
+/// max_error=0.01, best_effort=True, lobes=["gaussian"], metadata={"source": "lab"}, …
+#[pyfunction]
+#[pyo3(signature = (samples, out_path, **options))]
+fn encode(
+    py: Python<'_>,
+    samples: &Bound<'_, PyAny>,
+    out_path: PathBuf,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PyObject> {
+    let mut settings = EncodeSettings::default();
+    if let Some(opts) = options {
+        for (k, v) in opts.iter() {
+            let name: String = k.extract()?;
+            for text in option_text(&name, &v)? {
+                settings.set(&name, &text).map_err(err)?;
+            }
+        }
+    }
+    let (set, report, inputs) = if let Ok(d) = samples.downcast::<PyDict>() {
+        let mut columns: Vec<Vec<f64>> = Vec::with_capacity(6);
+        for c in sbrdf::input::COLUMNS {
+            let v = d.get_item(c)?.ok_or_else(|| {
+                Error::new_err(format!(
+                    "samples: no '{c}' array (give {})",
+                    sbrdf::input::COLUMNS.join(", ")
+                ))
+            })?;
+            let a: PyArrayLike1<'_, f64, AllowTypeChange> = v.extract()?;
+            columns.push(a.as_array().iter().copied().collect());
+        }
+        let refs: [&[f64]; 6] = std::array::from_fn(|i| columns[i].as_slice());
+        let (set, report) = sbrdf::input::samples_from_columns("samples", refs).map_err(err)?;
+        (set, report, vec!["<arrays>".to_string()])
+    } else {
+        let paths: Vec<PathBuf> = if let Ok(p) = samples.extract::<PathBuf>() {
+            vec![p]
+        } else {
+            samples.extract::<Vec<PathBuf>>().map_err(|_| {
+                Error::new_err("samples: expected a dict of arrays, a path or a list of paths")
+            })?
+        };
+        let (set, report) = py
+            .allow_threads(|| sbrdf::input::read_inputs(&paths))
+            .map_err(err)?;
+        let names = paths.iter().map(|p| p.display().to_string()).collect();
+        (set, report, names)
+    };
+    let outcome = py
+        .allow_threads(|| -> sbrdf::Result<_> {
+            let o = encode_samples(set, &report, &inputs, &settings)?;
+            sbrdf::output::write_bytes_atomic(&out_path, &o.bytes)?;
+            Ok(o)
+        })
+        .map_err(err)?;
+    let worst = outcome
+        .encoded
+        .material
+        .records
+        .iter()
+        .map(|r| r.rel_error as f64)
+        .fold(0.0, f64::max);
+    let d = PyDict::new(py);
+    d.set_item("bytes", outcome.bytes.len())?;
+    d.set_item("rel_error", outcome.encoded.rel_error)?;
+    d.set_item("worst_error", worst)?;
+    d.set_item("messages", outcome.messages)?;
+    Ok(d.into_any().unbind())
+}
+
+#[pymodule]
+fn _sbrdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("Error", m.py().get_type::<Error>())?;
+    m.add_class::<Material>()?;
+    m.add_function(wrap_pyfunction!(open, m)?)?;
+    m.add_function(wrap_pyfunction!(encode, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

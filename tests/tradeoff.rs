@@ -1,0 +1,224 @@
+//! `tradeoff` rows reproduce with `encode`; `subset` files decode, are smaller and record an
+//! honest error bound; `encode --wavelengths/--incident-max` stores only what a scene needs.
+
+mod common;
+use sbrdf::Decoder;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn sbrdf(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_sbrdf"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run sbrdf")
+}
+
+fn ok(o: &Output) -> String {
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "sbrdf failed: {e}");
+    e
+}
+
+/// Relative L2 error of a file against a sample set, as `decode --like` measures it.
+fn error_against(file: &Path, set: &sbrdf::samples::SampleSet) -> f64 {
+    let dec = Decoder::open(file).unwrap();
+    let wl = &set.wavelengths;
+    let mut out = vec![0.0; wl.len()];
+    let (mut approx, mut truth) = (Vec::new(), Vec::new());
+    for inc in &set.incidences {
+        for (d, dir) in inc.directions.iter().enumerate() {
+            dec.eval_deg((inc.theta_i, inc.phi_i), (dir[0], dir[1]), wl, &mut out);
+            approx.extend_from_slice(&out);
+            truth.extend_from_slice(&inc.values[d * wl.len()..(d + 1) * wl.len()]);
+        }
+    }
+    common::rel_l2(&approx, &truth)
+}
+
+#[test]
+fn tradeoff_rows_reproduce_with_encode() {
+    let tmp = tempfile::tempdir().unwrap();
+    let input = common::samples_dir().join("ggx_slices");
+    let input = input.to_str().unwrap();
+    ok(&sbrdf(
+        &[
+            "tradeoff", input, "--csv", "r.csv", "--plot", "r.svg", "--quick",
+        ],
+        tmp.path(),
+    ));
+    let mut reader = csv::Reader::from_path(tmp.path().join("r.csv")).unwrap();
+    let header: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
+    for column in [
+        "basis",
+        "terms",
+        "sh_level",
+        "peak",
+        "precision",
+        "bytes",
+        "rel_l2_error",
+        "max_abs_error",
+        "encode_ms",
+        "eval_ns_1wl",
+        "eval_ns_spectrum",
+        "pareto",
+    ] {
+        assert!(
+            header.contains(&column.to_string()),
+            "missing column {column}"
+        );
+    }
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
+    assert!(rows.len() >= 10, "{} settings", rows.len());
+    assert!(rows.iter().any(|r| &r[col("pareto")] == "1"));
+    let svg = std::fs::read_to_string(tmp.path().join("r.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("Pareto") && svg.contains("file size"));
+
+    let (set, _) = sbrdf::input::read_inputs(&[input]).unwrap();
+    // Every row: re-encode with its options, compare error (within 10%) and bytes (equal).
+    for (i, r) in rows.iter().enumerate() {
+        let out = format!("row{i}.sbrdf");
+        let mut args = vec!["encode", input, "-o", &out];
+        args.extend(r[col("encode_options")].split(' '));
+        ok(&sbrdf(&args, tmp.path()));
+        let e = error_against(&tmp.path().join(&out), &set);
+        let reported: f64 = r[col("rel_l2_error")].parse().unwrap();
+        assert!(
+            (e - reported).abs() <= 0.1 * reported.max(1e-9),
+            "row {i} ({}): encode gives {e}, report says {reported}",
+            &r[col("encode_options")]
+        );
+        let bytes = std::fs::metadata(tmp.path().join(&out)).unwrap().len();
+        assert_eq!(bytes.to_string(), &r[col("bytes")], "row {i}");
+    }
+}
+
+#[test]
+fn subset_is_smaller_decodes_and_bounds_its_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let golden = common::samples_dir().join("golden");
+    // The source of each file is known (MANIFEST): Phong green/white kd 1 ks 5 n 15.
+    let phong = common::paper_phong(5.0, 15.0);
+    for (file, cuts) in [
+        (
+            "phong_3inc_paper.sbrdf",
+            &[
+                "--wavelengths",
+                "450:650",
+                "--incident-max",
+                "40",
+                "--terms",
+                "5",
+            ][..],
+        ),
+        (
+            "phong_3inc_paper.sbrdf",
+            &["--sh-level", "0", "--precision", "f16"],
+        ),
+        (
+            "phong_3inc_default.sbrdf",
+            &["--wavelengths", "500:600", "--terms", "1"],
+        ),
+    ] {
+        let src = golden.join(file);
+        let mut args = vec!["subset", src.to_str().unwrap(), "-o", "s.sbrdf"];
+        args.extend_from_slice(cuts);
+        let log = ok(&sbrdf(&args, tmp.path()));
+        assert!(log.contains("bound"), "{log}");
+        let out = tmp.path().join("s.sbrdf");
+        assert!(
+            std::fs::metadata(&out).unwrap().len() < std::fs::metadata(&src).unwrap().len(),
+            "{file} {cuts:?}: not smaller"
+        );
+        let dec = Decoder::open(&out).unwrap();
+        let m = dec.material();
+        let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
+        // The truth at the kept wavelengths, from the formula (the table holds 400–700 every 10).
+        let all = common::paper_wavelengths();
+        let index: Vec<usize> = wl
+            .iter()
+            .map(|l| all.iter().position(|a| a == l).unwrap())
+            .collect();
+        let sp = m.sample_positions.as_ref().unwrap();
+        let mut out_v = vec![0.0; wl.len()];
+        for (i, r) in m.records.iter().enumerate() {
+            let inc = (r.theta_i as f64, r.phi_i as f64);
+            let (mut approx, mut truth) = (Vec::new(), Vec::new());
+            for d in sp.sets[sp.set_of_incidence[i] as usize].directions() {
+                dec.eval_deg(inc, (d[0], d[1]), &wl, &mut out_v);
+                approx.extend_from_slice(&out_v);
+                truth.extend(index.iter().map(|&w| phong.value(inc, (d[0], d[1]), w)));
+            }
+            let e = common::rel_l2(&approx, &truth);
+            assert!(
+                e <= r.rel_error as f64 * (1.0 + 1e-6),
+                "{file} {cuts:?} record {i}: true error {e} above the stored bound {}",
+                r.rel_error
+            );
+        }
+    }
+    // Cuts that keep nothing are refused.
+    let src = golden.join("tiny.sbrdf");
+    let o = sbrdf(
+        &[
+            "subset",
+            src.to_str().unwrap(),
+            "-o",
+            "x.sbrdf",
+            "--incident-max",
+            "5",
+        ],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--incident-max 5"));
+    assert!(!tmp.path().join("x.sbrdf").exists());
+}
+
+#[test]
+fn encode_keeps_only_what_a_scene_needs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let csv = common::samples_dir().join("golden/phong_3inc.csv");
+    let csv = csv.to_str().unwrap();
+    ok(&sbrdf(
+        &[
+            "encode",
+            csv,
+            "-o",
+            "scene.sbrdf",
+            "--wavelengths",
+            "450:650",
+            "--incident-max",
+            "40",
+        ],
+        tmp.path(),
+    ));
+    ok(&sbrdf(&["encode", csv, "-o", "all.sbrdf"], tmp.path()));
+    let scene = Decoder::open(tmp.path().join("scene.sbrdf")).unwrap();
+    let m = scene.material();
+    assert!(m.wavelengths.iter().all(|&w| (450.0..=650.0).contains(&w)));
+    assert_eq!(m.wavelengths.len(), 21);
+    assert!(m.records.iter().all(|r| r.theta_i <= 40.0));
+    assert_eq!(m.records.len(), 2);
+    let small = std::fs::metadata(tmp.path().join("scene.sbrdf"))
+        .unwrap()
+        .len();
+    let big = std::fs::metadata(tmp.path().join("all.sbrdf"))
+        .unwrap()
+        .len();
+    assert!(small < big, "{small} vs {big}");
+    let o = sbrdf(
+        &[
+            "encode",
+            csv,
+            "-o",
+            "none.sbrdf",
+            "--wavelengths",
+            "800:900",
+        ],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("keeps none"));
+}
