@@ -2,20 +2,8 @@
 //! and the decode round trip.
 
 mod common;
+use common::{sbrdf, stderr};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn sbrdf(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sbrdf"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run sbrdf")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);

@@ -3,19 +3,12 @@
 //! writes slices that read back to the decoder's values; malformed files give clear errors.
 
 mod common;
+use common::sbrdf;
 use exr::prelude::*;
 use sbrdf::exr_io::{self, pixel_direction, read_slice, PixelType};
 use sbrdf::Decoder;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn sbrdf(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sbrdf"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run sbrdf")
-}
+use std::process::Output;
 
 fn ok(o: &Output) {
     assert!(

@@ -1,16 +1,10 @@
 //! `sbrdf plot`, `sbrdf preview` and `sbrdf paper-figures`: the pictures decode, show what they
 //! claim, and bad input gets a clear message.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn sbrdf(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sbrdf"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run sbrdf")
-}
+mod common;
+use common::{sbrdf, stderr};
+use std::path::PathBuf;
+use std::process::Output;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -18,10 +12,6 @@ fn root() -> PathBuf {
 
 fn sample(rel: &str) -> String {
     root().join(rel).display().to_string()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 fn assert_ok(o: &Output) {

@@ -3,20 +3,9 @@
 //! byte-identical output whatever `RAYON_NUM_THREADS` says.
 
 mod common;
+use common::{sbrdf, stderr};
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
-
-fn sbrdf(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sbrdf"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run sbrdf")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 /// A refusal: exit status 1 (not a crash: a panic exits 101, a signal has no code), an
 /// `sbrdf: error:` message, nothing on stdout.

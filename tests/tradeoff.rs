@@ -2,17 +2,10 @@
 //! honest error bound; `encode --wavelengths/--incident-max` stores only what a scene needs.
 
 mod common;
+use common::sbrdf;
 use sbrdf::Decoder;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn sbrdf(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sbrdf"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run sbrdf")
-}
+use std::process::Output;
 
 fn ok(o: &Output) -> String {
     let e = String::from_utf8_lossy(&o.stderr).into_owned();

@@ -164,3 +164,20 @@ pub const ABC_MATERIALS: [(&str, &str); 10] = [
     ("chrome", "cyan"),
     ("specular-red-phenolic", "orange yellow"),
 ];
+
+/// Runs the `sbrdf` program with `args` in the folder `dir`. (Integration tests only: the
+/// program's path is known to them, not to the example that shares this module.)
+#[cfg(test)]
+pub fn sbrdf(args: &[&str], dir: &std::path::Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_sbrdf"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run sbrdf")
+}
+
+/// A run's standard error as text.
+#[cfg(test)]
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
