@@ -40,8 +40,9 @@ pub struct Decoder {
     /// its azimuth without trigonometry.
     theta_ends: [(f64, f64, f64); 2],
     /// Per record, the energy of the background and of each lobe: the mixture weights of
-    /// importance sampling (`src/sampling.rs`).
-    pub(crate) sampling: SamplingWeights,
+    /// importance sampling (`src/sampling.rs`). Computed on first use, once: they cost three
+    /// times the rest of opening a file, which a decoder that only evaluates need not pay.
+    sampling: std::sync::OnceLock<SamplingWeights>,
 }
 
 /// A query's incident direction turned into the frame its records are stored in: for isotropic
@@ -266,7 +267,7 @@ impl Decoder {
         };
         let first = material.records.first().map_or(0.0, |r| r.theta_i as f64);
         let last = material.records.last().map_or(0.0, |r| r.theta_i as f64);
-        let mut decoder = Decoder {
+        let decoder = Decoder {
             material,
             sh,
             peak_offset,
@@ -276,9 +277,8 @@ impl Decoder {
             small,
             spectrum,
             theta_ends: [end(first), end(last)],
-            sampling: SamplingWeights::default(),
+            sampling: std::sync::OnceLock::new(),
         };
-        decoder.sampling = SamplingWeights::new(&decoder);
         Ok(decoder)
     }
 
@@ -411,13 +411,25 @@ impl Decoder {
         self.eval_frame(q.theta, q.phi, Some(q.wi), q.in_frame(wo), wl, sink);
     }
 
+    /// Computes the importance-sampling weights now rather than on the first call of
+    /// [`Decoder::sample`] or [`Decoder::pdf`] (the only call that allocates): for renderers
+    /// that want every later call allocation-free. Thread-safe; later calls do nothing.
+    pub fn prepare_sampling(&self) {
+        self.sampling_weights();
+    }
+
+    pub(crate) fn sampling_weights(&self) -> &SamplingWeights {
+        self.sampling.get_or_init(|| SamplingWeights::new(self))
+    }
+
     /// Draws an outgoing direction (toward the viewer) for the incident direction `wi` (toward
     /// the light; local frame, z = normal, need not be unit length) from two uniform numbers
     /// in [0, 1). The density is the same for every wavelength: a mixture of the stored lobes'
     /// shapes and a cosine, weighted by the energy of each in the spectrum-averaged BRDF times
     /// cos θo. The returned `pdf` (1/sr, over solid angle) is exactly [`Decoder::pdf`] at the
     /// returned direction. None when `wi` is below the horizon, zero or not finite, or a `u`
-    /// is not finite. Never allocates. Details: `spec/EVALUATION.md`, "Importance sampling".
+    /// is not finite. Never allocates after the first call (see
+    /// [`Decoder::prepare_sampling`]). Details: `spec/EVALUATION.md`, "Importance sampling".
     ///
     /// A path tracer that starts at the camera knows the direction toward the viewer, not the
     /// light: it passes that one as `wi` and uses the drawn direction as the light's, which is

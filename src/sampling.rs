@@ -452,7 +452,7 @@ struct Mixture {
 impl Mixture {
     fn new(dec: &Decoder, q: &QueryFrame) -> Self {
         let m = dec.material();
-        let sw = &dec.sampling;
+        let sw = dec.sampling_weights();
         let (blend, wi, theta, phi) = dec.resolve(q.theta, q.phi, Some(q.wi));
         let recs = &blend.rec[..blend.n];
         let ws = &blend.w[..blend.n];
