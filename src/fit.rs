@@ -454,23 +454,16 @@ fn fit_gaussian(
 /// peak past the last sampled θo (grazing incidence: at 89° the samples stop at 87.5°), where
 /// the mirror direction is usually right.
 pub fn find_peak_direction(s: &IncidentSamples, mirror: (f64, f64)) -> (f64, f64) {
-    let found = locate_peak(s, mirror);
-    if found == mirror {
-        return found;
-    }
-    let w = s.values.len() / s.directions.len();
-    let level: Vec<f64> = s
-        .values
-        .chunks(w)
-        .map(|c| c.iter().sum::<f64>() / w as f64)
-        .collect();
-    let mut sorted = level.clone();
-    sorted.sort_by(f64::total_cmp);
-    let base = sorted[sorted.len() / 2];
-    let max = sorted[sorted.len() - 1];
-    let threshold = base + 0.5 * (max - base);
-    let picked: Vec<usize> = (0..level.len()).filter(|&i| level[i] > threshold).collect();
-    if picked.len() < 3 {
+    let Some(bright) = BrightSamples::of(s) else {
+        return mirror; // no peak stands out
+    };
+    let found = locate_peak(s, &bright, mirror);
+    let BrightSamples {
+        level,
+        base,
+        picked,
+    } = &bright;
+    if found == mirror || picked.len() < 3 {
         return found;
     }
     // Residual of the best fit ln(level − base) = a − c·angle², over the bright samples.
@@ -481,7 +474,7 @@ pub fn find_peak_direction(s: &IncidentSamples, mirror: (f64, f64)) -> (f64, f64
             let a2 = angle_between(dir_from_deg(d[0], d[1]), c).powi(2);
             [1.0, a2][k]
         });
-        let v = DMatrix::from_fn(picked.len(), 1, |r, _| (level[picked[r]] - base).ln());
+        let v = DMatrix::from_fn(picked.len(), 1, |r, _| (level[picked[r]] - *base).ln());
         let x = lstsq(&m, &v);
         if x[(1, 0)].is_nan() || x[(1, 0)] >= 0.0 {
             return f64::INFINITY; // not falling off away from this centre
@@ -495,22 +488,47 @@ pub fn find_peak_direction(s: &IncidentSamples, mirror: (f64, f64)) -> (f64, f64
     }
 }
 
-fn locate_peak(s: &IncidentSamples, mirror: (f64, f64)) -> (f64, f64) {
-    let w = s.values.len() / s.directions.len();
-    let level: Vec<f64> = s
-        .values
-        .chunks(w)
-        .map(|c| c.iter().sum::<f64>() / w as f64)
-        .collect();
-    let mut sorted = level.clone();
-    sorted.sort_by(f64::total_cmp);
-    let base = sorted[sorted.len() / 2];
-    let max = sorted[sorted.len() - 1];
-    if max.is_nan() || max <= base {
-        return mirror;
+/// The samples standing well above the rest: their spectrum-averaged levels, the median level,
+/// and the indices above half-way between the median and the maximum. Computed once for both
+/// the paper's estimate and the check against the mirror direction.
+struct BrightSamples {
+    level: Vec<f64>,
+    base: f64,
+    picked: Vec<usize>,
+}
+
+impl BrightSamples {
+    /// None when no sample stands above the median (or the levels are not numbers).
+    fn of(s: &IncidentSamples) -> Option<Self> {
+        let w = s.values.len() / s.directions.len();
+        let level: Vec<f64> = s
+            .values
+            .chunks(w)
+            .map(|c| c.iter().sum::<f64>() / w as f64)
+            .collect();
+        let mut sorted = level.clone();
+        sorted.sort_by(f64::total_cmp);
+        let base = sorted[sorted.len() / 2];
+        let max = sorted[sorted.len() - 1];
+        if max.is_nan() || max <= base {
+            return None;
+        }
+        let threshold = base + 0.5 * (max - base);
+        let picked = (0..level.len()).filter(|&i| level[i] > threshold).collect();
+        Some(BrightSamples {
+            level,
+            base,
+            picked,
+        })
     }
-    let threshold = base + 0.5 * (max - base);
-    let picked: Vec<usize> = (0..level.len()).filter(|&i| level[i] > threshold).collect();
+}
+
+fn locate_peak(s: &IncidentSamples, bright: &BrightSamples, mirror: (f64, f64)) -> (f64, f64) {
+    let BrightSamples {
+        level,
+        base,
+        picked,
+    } = bright;
     let lnv = |i: usize| (level[i] - base).ln();
 
     // Step 2: rows of equal θo give φ centres, as offsets from the mirror azimuth so the wrap
@@ -518,7 +536,7 @@ fn locate_peak(s: &IncidentSamples, mirror: (f64, f64)) -> (f64, f64) {
     // unbiased.
     let group = |key: usize| {
         let mut groups: std::collections::BTreeMap<u64, Vec<usize>> = Default::default();
-        for &i in &picked {
+        for &i in picked {
             groups
                 .entry(s.directions[i][key].to_bits())
                 .or_default()
@@ -567,7 +585,7 @@ fn locate_peak(s: &IncidentSamples, mirror: (f64, f64)) -> (f64, f64) {
             return (t.clamp(0.0, 90.0), phi_p);
         }
     }
-    peak_2d(s, &picked, &lnv, mirror).unwrap_or(mirror)
+    peak_2d(s, picked, &lnv, mirror).unwrap_or(mirror)
 }
 
 /// Centre −B/(2C) of ln f = A + Bx + Cx², if the fit opens downward and the centre lies within
