@@ -32,35 +32,45 @@ struct Material {
     bytes: u64,
 }
 
-/// N unit vectors from an array of shape (N, 3) or (3,) (then N = 1).
-fn vectors(name: &str, a: &PyArrayLikeDyn<'_, f32, AllowTypeChange>) -> PyResult<Vec<[f32; 3]>> {
+/// N rows of K values from an array of shape (N, K) or (K,) (then N = 1): direction vectors
+/// (K = 3) or pairs of uniform numbers (K = 2).
+fn rows<const K: usize>(
+    name: &str,
+    a: &PyArrayLikeDyn<'_, f32, AllowTypeChange>,
+) -> PyResult<Vec<[f32; K]>> {
     let v = a.as_array();
     let shape = v.shape().to_vec();
-    let rows = match shape.as_slice() {
-        [3] => 1,
-        [n, 3] => *n,
+    let n = match shape.as_slice() {
+        [k] if *k == K => 1,
+        [n, k] if *k == K => *n,
         _ => {
             return Err(Error::new_err(format!(
-                "{name}: expected shape (N, 3) or (3,), got {shape:?}"
+                "{name}: expected shape (N, {K}) or ({K},), got {shape:?}"
             )))
         }
     };
     let flat: Vec<f32> = v.iter().copied().collect();
-    Ok((0..rows)
-        .map(|i| [flat[3 * i], flat[3 * i + 1], flat[3 * i + 2]])
+    Ok((0..n)
+        .map(|i| std::array::from_fn(|j| flat[K * i + j]))
         .collect())
 }
 
-/// Pairs (wi, wo), broadcasting a single vector against N.
-fn pairs(wi: &[[f32; 3]], wo: &[[f32; 3]]) -> PyResult<usize> {
-    match (wi.len(), wo.len()) {
-        (a, b) if a == b => Ok(a),
-        (1, b) => Ok(b),
-        (a, 1) => Ok(a),
-        (a, b) => Err(Error::new_err(format!(
-            "wi has {a} directions and wo {b}: give as many of each, or one of either"
+/// The number of queries from two row counts, broadcasting a single row against N.
+fn broadcast(a: (&str, usize), b: (&str, usize)) -> PyResult<usize> {
+    match (a.1, b.1) {
+        (x, y) if x == y => Ok(x),
+        (1, y) => Ok(y),
+        (x, 1) => Ok(x),
+        (x, y) => Err(Error::new_err(format!(
+            "{} has {x} rows and {} {y}: give as many of each, or one of either",
+            a.0, b.0
         ))),
     }
+}
+
+/// Row i of a broadcast argument.
+fn at<T: Copy>(v: &[T], i: usize) -> T {
+    v[if v.len() == 1 { 0 } else { i }]
 }
 
 #[pymethods]
@@ -89,9 +99,9 @@ impl Material {
         wo: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
         wavelengths: PyArrayLike1<'py, f32, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        let wi = vectors("wi", &wi)?;
-        let wo = vectors("wo", &wo)?;
-        let n = pairs(&wi, &wo)?;
+        let wi = rows::<3>("wi", &wi)?;
+        let wo = rows::<3>("wo", &wo)?;
+        let n = broadcast(("wi", wi.len()), ("wo", wo.len()))?;
         let wl: Vec<f32> = wavelengths.as_array().iter().copied().collect();
         let m = wl.len();
         let dec = &self.dec;
@@ -99,9 +109,7 @@ impl Material {
             let mut out = vec![0.0f32; n * m];
             if m > 0 {
                 for (i, row) in out.chunks_mut(m).enumerate() {
-                    let a = wi[if wi.len() == 1 { 0 } else { i }];
-                    let b = wo[if wo.len() == 1 { 0 } else { i }];
-                    dec.eval(a, b, &wl, row);
+                    dec.eval(at(&wi, i), at(&wo, i), &wl, row);
                 }
             }
             out
@@ -119,38 +127,15 @@ impl Material {
         wi: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
         u: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
     ) -> PyResult<Sampled<'py>> {
-        let wi = vectors("wi", &wi)?;
-        let uv = u.as_array();
-        let shape = uv.shape().to_vec();
-        let nu = match shape.as_slice() {
-            [2] => 1,
-            [n, 2] => *n,
-            _ => {
-                return Err(Error::new_err(format!(
-                    "u: expected shape (N, 2) or (2,), got {shape:?}"
-                )))
-            }
-        };
-        let flat: Vec<f32> = uv.iter().copied().collect();
-        let us: Vec<[f32; 2]> = (0..nu).map(|i| [flat[2 * i], flat[2 * i + 1]]).collect();
-        let n = match (wi.len(), nu) {
-            (a, b) if a == b => a,
-            (1, b) => b,
-            (a, 1) => a,
-            (a, b) => {
-                return Err(Error::new_err(format!(
-                    "wi has {a} directions and u {b} pairs: give as many of each, or one of either"
-                )))
-            }
-        };
+        let wi = rows::<3>("wi", &wi)?;
+        let us = rows::<2>("u", &u)?;
+        let n = broadcast(("wi", wi.len()), ("u", us.len()))?;
         let dec = &self.dec;
         let (wos, pdfs) = py.allow_threads(|| {
             let mut wos = vec![0.0f32; 3 * n];
             let mut pdfs = vec![0.0f32; n];
             for i in 0..n {
-                let a = wi[if wi.len() == 1 { 0 } else { i }];
-                let b = us[if us.len() == 1 { 0 } else { i }];
-                if let Some(s) = dec.sample(a, b) {
+                if let Some(s) = dec.sample(at(&wi, i), at(&us, i)) {
                     wos[3 * i..3 * i + 3].copy_from_slice(&s.wo);
                     pdfs[i] = s.pdf;
                 }
@@ -170,18 +155,13 @@ impl Material {
         wi: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
         wo: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        let wi = vectors("wi", &wi)?;
-        let wo = vectors("wo", &wo)?;
-        let n = pairs(&wi, &wo)?;
+        let wi = rows::<3>("wi", &wi)?;
+        let wo = rows::<3>("wo", &wo)?;
+        let n = broadcast(("wi", wi.len()), ("wo", wo.len()))?;
         let dec = &self.dec;
         let out = py.allow_threads(|| {
             (0..n)
-                .map(|i| {
-                    dec.pdf(
-                        wi[if wi.len() == 1 { 0 } else { i }],
-                        wo[if wo.len() == 1 { 0 } else { i }],
-                    )
-                })
+                .map(|i| dec.pdf(at(&wi, i), at(&wo, i)))
                 .collect::<Vec<f32>>()
         });
         Ok(PyArray1::from_vec(py, out))
