@@ -6,9 +6,9 @@
 //! materials and incidences.
 
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use sbrdf::encoder::{encode, EncodeOptions};
-use sbrdf::samples::SampleSet;
-use sbrdf::synth::{paper_grid, sample_material, Ggx, Phong, SpectrumTable};
+use sbrdf::encode::encoder::{encode, EncodeOptions};
+use sbrdf::encode::samples::SampleSet;
+use sbrdf::io::synth::{paper_grid, sample_material, Ggx, Phong, QueryRng};
 use sbrdf::Decoder;
 
 /// The raw-table baseline: values[inc][iθ][iφ][w] on the paper's grid.
@@ -73,28 +73,11 @@ impl RawTable {
 }
 
 fn materials() -> Vec<(&'static str, SampleSet)> {
-    let t = SpectrumTable::colorchecker();
     let wl: Vec<f64> = (0..31).map(|i| 400.0 + 10.0 * i as f64).collect();
     let grid = paper_grid(5.0, 5.0);
-    let phong = Phong {
-        diffuse: t.sample(t.find("green").unwrap(), &wl).unwrap(),
-        specular: t.sample(t.find("white").unwrap(), &wl).unwrap(),
-        kd: 1.0,
-        ks: 15.0,
-        n: 50.0,
-    };
+    let phong = Phong::colorchecker("green", "white", (1.0, 15.0, 50.0), &wl).unwrap();
     let nine: Vec<(f64, f64)> = (0..9).map(|i| (10.0 * i as f64, 0.0)).collect();
-    let ggx = Ggx {
-        alpha: 0.2,
-        kd: 1.0,
-        diffuse: t.sample(t.find("blue").unwrap(), &wl).unwrap(),
-        f0: t
-            .sample(t.find("yellow").unwrap(), &wl)
-            .unwrap()
-            .iter()
-            .map(|v| 0.04 + 0.5 * v)
-            .collect(),
-    };
+    let ggx = Ggx::colorchecker(0.2, 1.0, "blue", "yellow", &wl).unwrap();
     let seven: Vec<(f64, f64)> = (0..7).map(|i| (12.0 * i as f64, 0.0)).collect();
     vec![
         (
@@ -106,24 +89,6 @@ fn materials() -> Vec<(&'static str, SampleSet)> {
             sample_material(&wl, &seven, &grid, |i, o, w| ggx.value(i, o, w)),
         ),
     ]
-}
-
-/// Deterministic query directions over the upper hemisphere.
-fn queries(n: usize) -> Vec<([f32; 3], [f32; 3])> {
-    let mut state = 0x2545F4914F6CDD1Du64;
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f32 / (1u64 << 53) as f32
-    };
-    let dir = |next: &mut dyn FnMut() -> f32| {
-        let z: f32 = 0.05 + 0.95 * next();
-        let p = 2.0 * std::f32::consts::PI * next();
-        let r = (1.0 - z * z).sqrt();
-        [r * p.cos(), r * p.sin(), z]
-    };
-    (0..n).map(|_| (dir(&mut next), dir(&mut next))).collect()
 }
 
 /// Deterministic uniform pairs for `sample`.
@@ -139,7 +104,7 @@ fn uniforms(n: usize) -> Vec<[f32; 2]> {
 }
 
 fn bench_decode(c: &mut Criterion) {
-    let qs = queries(4096);
+    let qs = QueryRng::new(0x2545_F491_4F6C_DD1D).direction_pairs(4096, 0.05);
     for (name, set) in materials() {
         let enc = encode(&set, &EncodeOptions::default()).unwrap();
         let bytes = sbrdf::write_material(&enc.material).unwrap();

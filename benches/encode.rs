@@ -3,21 +3,14 @@
 //! measured in the same run.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use sbrdf::encoder::{encode, EncodeOptions};
-use sbrdf::fit::PeakMode;
-use sbrdf::synth::{paper_grid, sample_material, Phong, SpectrumTable};
+use sbrdf::encode::encoder::{encode, EncodeOptions};
+use sbrdf::encode::fit::PeakMode;
+use sbrdf::io::synth::{paper_grid, sample_material, Phong};
 use std::time::Duration;
 
-fn material() -> sbrdf::samples::SampleSet {
-    let t = SpectrumTable::colorchecker();
+fn material() -> sbrdf::encode::samples::SampleSet {
     let wl: Vec<f64> = (0..31).map(|i| 400.0 + 10.0 * i as f64).collect();
-    let phong = Phong {
-        diffuse: t.sample(t.find("green").unwrap(), &wl).unwrap(),
-        specular: t.sample(t.find("white").unwrap(), &wl).unwrap(),
-        kd: 1.0,
-        ks: 15.0,
-        n: 50.0,
-    };
+    let phong = Phong::colorchecker("green", "white", (1.0, 15.0, 50.0), &wl).unwrap();
     let incidences: Vec<(f64, f64)> = (0..90).map(|i| (i as f64, 0.0)).collect();
     let set = sample_material(&wl, &incidences, &paper_grid(5.0, 5.0), |i, o, w| {
         phong.value(i, o, w)

@@ -10,8 +10,8 @@
 mod common;
 
 use common::*;
-use sbrdf::encoder::{encode, EncodeOptions};
-use sbrdf::samples::SampleSet;
+use sbrdf::encode::encoder::{encode, EncodeOptions};
+use sbrdf::encode::samples::SampleSet;
 
 struct Row {
     name: String,
@@ -67,7 +67,7 @@ fn main() {
     }
     let abc: Vec<_> = ABC_MATERIALS
         .iter()
-        .map(|(n, p)| sbrdf::synth::Abc::from_table(n, p, &wl).unwrap())
+        .map(|(n, p)| sbrdf::io::synth::Abc::from_table(n, p, &wl).unwrap())
         .collect();
     rows.push(Row {
         name: "10 MERL ABC fits, 0–60°".into(),
@@ -95,7 +95,7 @@ fn main() {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nist_ptfe_fr11.csv");
     rows.push(Row {
         name: "NIST PTFE (6 incidences, 351–1064 nm)".into(),
-        sets: vec![sbrdf::csv_input::read_samples(&[nist]).unwrap().0],
+        sets: vec![sbrdf::io::csv::read_samples(&[nist]).unwrap().0],
     });
 
     let paper = EncodeOptions {

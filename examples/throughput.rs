@@ -11,20 +11,7 @@ fn main() {
     let n: usize = args.get(2).map_or(1_000_000, |s| s.parse().expect("PAIRS"));
     let m: usize = args.get(3).map_or(4, |s| s.parse().expect("WAVELENGTHS"));
     let dec = sbrdf::Decoder::open(path).expect("open");
-    let mut state = 0x2545_F491_4F6C_DD1Du64;
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f32 / (1u64 << 53) as f32
-    };
-    let mut dir = || {
-        let z: f32 = next();
-        let p = std::f32::consts::TAU * next();
-        let r = (1.0 - z * z).sqrt();
-        [r * p.cos(), r * p.sin(), z]
-    };
-    let pairs: Vec<([f32; 3], [f32; 3])> = (0..n).map(|_| (dir(), dir())).collect();
+    let pairs = sbrdf::io::synth::QueryRng::new(0x2545_F491_4F6C_DD1D).direction_pairs(n, 0.0);
     let wl: Vec<f32> = (0..m)
         .map(|i| 450.0 + 200.0 * i as f32 / m.max(2) as f32)
         .collect();

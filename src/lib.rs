@@ -2,66 +2,47 @@
 //!
 //! A compact, archival codec for spectral BRDFs. Per incident direction, each spectral
 //! coefficient of the BRDF is stored as a real spherical-harmonic expansion over outgoing
-//! directions plus a specular peak (Xu & Sun, "Efficient Representation of Spectral BRDFs").
+//! directions plus specular lobes (beyond Xu & Sun, "Efficient Representation of Spectral BRDFs").
 //!
 //! * [`Decoder`] opens a file and evaluates ρ(ωi, ωo, λ); it needs no optional feature, so a
 //!   renderer can depend on `sbrdf` with `default-features = false`.
-//! * With the `encode` feature, [`encoder`] fits sampled BRDFs ([`samples::SampleSet`]).
-//! * With the `cli` feature (default), the `sbrdf` program and the CSV and spectral-EXR readers.
+//! * With the `encode` feature, [`encode`] fits sampled BRDFs ([`encode::SampleSet`]).
+//! * With the `cli` feature (default), the `sbrdf` program, the CSV and spectral-EXR readers
+//!   ([`io`]) and the pictures and studies ([`report`]).
+//!
+//! The folders are the architecture; dependencies point one way, down this list:
+//!
+//! | room | feature | what it is for |
+//! | --- | --- | --- |
+//! | [`model`] | always | what a file holds and the math both sides share |
+//! | [`format`](mod@format) | always | bytes: signature, chunks and CRCs, limits, reader and writer |
+//! | [`decode`] | always | the decoder, incidence blending, sampling, colour, the C ABI |
+//! | [`encode`] | `encode` | from samples to a material: the fitters, budgets, subset, info |
+//! | [`io`] | `cli` | files in and out: CSV, EXR, atomic output, synthetic materials |
+//! | [`report`] | `cli` | pictures and studies: plots, previews, paper figures, the trade-off |
 //!
 //! Conventions: `spec/EVALUATION.md`; byte format: `spec/FORMAT.md`.
 
-pub mod angles;
-pub mod capi;
-mod cie;
-pub mod color;
-pub mod decoder;
 pub mod error;
+
+pub mod decode;
 pub mod format;
-pub mod lobes;
-pub mod material;
-pub mod sampling;
-pub mod sh;
-pub mod spectral;
+pub mod model;
 
 #[cfg(feature = "encode")]
-pub mod encoder;
-#[cfg(feature = "encode")]
-pub mod fit;
-#[cfg(feature = "encode")]
-pub mod info;
-#[cfg(feature = "encode")]
-pub mod joint;
-#[cfg(feature = "encode")]
-pub mod samples;
-#[cfg(feature = "encode")]
-pub mod subset;
+pub mod encode;
 
 #[cfg(feature = "cli")]
-pub mod csv_input;
+pub mod io;
 #[cfg(feature = "cli")]
-pub mod exr_io;
-#[cfg(feature = "cli")]
-pub mod figures;
-#[cfg(feature = "cli")]
-pub mod input;
-#[cfg(feature = "cli")]
-pub mod output;
-#[cfg(feature = "cli")]
-pub mod paper_figures;
-#[cfg(feature = "cli")]
-pub mod settings;
-#[cfg(feature = "cli")]
-pub mod synth;
-#[cfg(feature = "cli")]
-pub mod tradeoff;
+pub mod report;
 
-pub use decoder::Decoder;
+pub use decode::{Decoder, Sample};
 pub use error::{Error, Result};
 pub use format::{read_material, write_material, Limits};
-pub use material::{IncidentRecord, Lobe, LobeKind, Material, Precision};
-pub use sampling::Sample;
-pub use spectral::{SpectralBasis, SpectralSpace};
+pub use model::{
+    IncidentRecord, Lobe, LobeKind, Material, Precision, SpectralBasis, SpectralSpace,
+};
 
 #[cfg(test)]
 mod assert_traits {

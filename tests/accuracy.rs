@@ -5,13 +5,16 @@
 
 mod common;
 use common::*;
-use sbrdf::encoder::EncodeOptions;
+use sbrdf::encode::encoder::EncodeOptions;
 use sbrdf::write_material;
 
 const INCIDENCES: [f64; 7] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 85.0];
 
 /// Encodes with the defaults and returns the per-incidence errors and the file size.
-fn run(set: &sbrdf::samples::SampleSet, f: impl FnOnce(&mut EncodeOptions)) -> (Vec<f64>, usize) {
+fn run(
+    set: &sbrdf::encode::samples::SampleSet,
+    f: impl FnOnce(&mut EncodeOptions),
+) -> (Vec<f64>, usize) {
     let e = encode_default(set, |o| {
         o.inputs = vec!["material.csv".into()];
         f(o)
@@ -77,7 +80,7 @@ fn microfacet_materials_up_to_grazing() {
     }
     let wl = paper_wavelengths();
     for (name, patch) in ABC_MATERIALS {
-        let m = sbrdf::synth::Abc::from_table(name, patch, &wl).unwrap();
+        let m = sbrdf::io::synth::Abc::from_table(name, patch, &wl).unwrap();
         let set = sample_on_paper_grid(&incs, |i, o, w| m.value(i, o, w));
         let (errs, bytes) = run(&set, |_| {});
         check_microfacet(name, &errs, bytes);
@@ -105,7 +108,7 @@ fn materials_outside_the_lobe_families() {
 fn nist_ptfe_measurement() {
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nist_ptfe_fr11.csv");
-    let (set, report) = sbrdf::csv_input::read_samples(&[path]).unwrap();
+    let (set, report) = sbrdf::io::csv::read_samples(&[path]).unwrap();
     assert_eq!(report.negative_values, 0);
     assert_eq!(set.wavelengths, vec![351.0, 532.0, 633.0, 1064.0]);
     assert_eq!(set.incidences.len(), 6);

@@ -1,6 +1,6 @@
-//! The C ABI called as C calls it, and include/sbrdf.h kept in sync with src/capi.rs.
+//! The C ABI called as C calls it, and include/sbrdf.h kept in sync with src/decode/capi.rs.
 
-use sbrdf::capi::*;
+use sbrdf::decode::capi::*;
 use std::ffi::{CStr, CString};
 use std::path::Path;
 
@@ -45,7 +45,8 @@ fn header_declares_exactly_the_exported_api() {
     }
     // Every function the header names is exported by the library source.
     let src =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/capi.rs")).unwrap();
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/decode/capi.rs"))
+            .unwrap();
     for f in [
         "sbrdf_open_file",
         "sbrdf_open_memory",

@@ -2,8 +2,8 @@
 //! white material comes out as D65's white point and as sRGB white.
 
 mod common;
-use sbrdf::color::{Illuminant, CIE_WAVELENGTHS};
-use sbrdf::samples::{IncidentSamples, SampleSet};
+use sbrdf::decode::color::{Illuminant, CIE_WAVELENGTHS};
+use sbrdf::encode::samples::{IncidentSamples, SampleSet};
 
 #[test]
 fn cie_constants_match_the_shipped_table() {
@@ -23,7 +23,7 @@ fn cie_constants_match_the_shipped_table() {
         assert_eq!(CIE_WAVELENGTHS[i] as f64, row[0]);
         let mut s = [0.0f32; 81];
         s[i] = 1.0;
-        let xyz = sbrdf::color::spectrum_to_xyz(&s, Illuminant::Equal);
+        let xyz = sbrdf::decode::color::spectrum_to_xyz(&s, Illuminant::Equal);
         for j in 0..3 {
             assert!((xyz[j] * norm - row[1 + j]).abs() <= 1e-12, "row {i}");
         }
@@ -34,7 +34,7 @@ fn cie_constants_match_the_shipped_table() {
 fn a_white_material_is_the_illuminants_white() {
     // A constant BRDF of 1 everywhere, encoded and decoded.
     let wl: Vec<f64> = (0..31).map(|i| 400.0 + 10.0 * i as f64).collect();
-    let dirs = sbrdf::synth::paper_grid(10.0, 30.0);
+    let dirs = sbrdf::io::synth::paper_grid(10.0, 30.0);
     let set = SampleSet {
         incidences: vec![IncidentSamples {
             theta_i: 20.0,
@@ -44,7 +44,7 @@ fn a_white_material_is_the_illuminants_white() {
         }],
         wavelengths: wl,
     };
-    let enc = sbrdf::encoder::encode(&set, &Default::default()).unwrap();
+    let enc = sbrdf::encode::encoder::encode(&set, &Default::default()).unwrap();
     let dec = sbrdf::Decoder::from_material(enc.material).unwrap();
     let (wi, wo) = ([0.34f32, 0.0, 0.94], [-0.2f32, 0.1, 0.97]);
     let xyz = dec.eval_xyz(wi, wo, Illuminant::D65);

@@ -5,7 +5,7 @@
 mod common;
 use common::sbrdf;
 use exr::prelude::*;
-use sbrdf::exr_io::{self, pixel_direction, read_slice, PixelType};
+use sbrdf::io::exr::{self as exr_io, pixel_direction, read_slice, PixelType};
 use sbrdf::Decoder;
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -70,15 +70,9 @@ fn synthesised_slices_hold_the_analytic_material_at_pixel_centres() {
     let dir = synth_slices(tmp.path());
     let files = slices(&dir);
     assert_eq!(files.len(), 2);
-    let t = sbrdf::synth::SpectrumTable::colorchecker();
     let wl: Vec<f64> = (0..16).map(|i| 400.0 + 20.0 * i as f64).collect();
-    let phong = sbrdf::synth::Phong {
-        diffuse: t.sample(t.find("green").unwrap(), &wl).unwrap(),
-        specular: t.sample(t.find("white").unwrap(), &wl).unwrap(),
-        kd: 1.0,
-        ks: 5.0,
-        n: 15.0,
-    };
+    let phong =
+        sbrdf::io::synth::Phong::colorchecker("green", "white", (1.0, 5.0, 15.0), &wl).unwrap();
     for (f, ti) in files.iter().zip([20.0, 50.0]) {
         let s = read_slice("x", &std::fs::read(f).unwrap()).unwrap();
         assert_eq!((s.theta_i, s.phi_i, s.height, s.width), (ti, 0.0, 9, 36));
@@ -112,8 +106,8 @@ fn assert_same_records(a: &[u8], b: &[u8]) {
     let wl: Vec<f32> = ma.wavelengths.clone();
     let (mut oa, mut ob) = (vec![0.0; wl.len()], vec![0.0; wl.len()]);
     for q in 0..200 {
-        let wi = sbrdf::angles::dir_from_deg(q as f64 * 0.41 % 90.0, q as f64 * 7.3);
-        let wo = sbrdf::angles::dir_from_deg(q as f64 * 0.37 % 90.0, q as f64 * 13.1);
+        let wi = sbrdf::model::angles::dir_from_deg(q as f64 * 0.41 % 90.0, q as f64 * 7.3);
+        let wo = sbrdf::model::angles::dir_from_deg(q as f64 * 0.37 % 90.0, q as f64 * 13.1);
         let f = |v: [f64; 3]| v.map(|x| x as f32);
         da.eval(f(wi), f(wo), &wl, &mut oa);
         db.eval(f(wi), f(wo), &wl, &mut ob);
@@ -127,13 +121,13 @@ fn exr_and_csv_inputs_of_the_same_samples_encode_identically() {
     let dir = synth_slices(tmp.path());
     // The same samples as CSV: read the slices, write the wide layout (shortest round-trip
     // decimal text, so the CSV reader gets the very same numbers back).
-    let (set, report) = sbrdf::input::read_inputs(&[&dir]).unwrap();
+    let (set, report) = sbrdf::io::read_inputs(&[&dir]).unwrap();
     assert_eq!(report.missing_pixels, 0);
     let csv = tmp.path().join("same.csv");
     let mut text = Vec::new();
-    sbrdf::csv_input::write_wide(&set, &mut text, None).unwrap();
+    sbrdf::io::csv::write_wide(&set, &mut text, None).unwrap();
     std::fs::write(&csv, text).unwrap();
-    let (from_csv, _) = sbrdf::csv_input::read_samples(&[&csv]).unwrap();
+    let (from_csv, _) = sbrdf::io::csv::read_samples(&[&csv]).unwrap();
     assert_eq!(from_csv, set);
     for opts in [
         &["--max-error", "0.01", "--best-effort"][..],
@@ -370,7 +364,7 @@ fn cli_reports_bad_slices_and_writes_nothing() {
 #[test]
 fn shipped_slices_decode_from_their_encoding_with_the_stated_error() {
     let dir = common::samples_dir().join("ggx_slices");
-    let (set, _) = sbrdf::input::read_inputs(&[&dir]).unwrap();
+    let (set, _) = sbrdf::io::read_inputs(&[&dir]).unwrap();
     let dec = Decoder::open(common::samples_dir().join("ggx_slices.sbrdf")).unwrap();
     let m = dec.material();
     assert_eq!(m.records.len(), set.incidences.len());

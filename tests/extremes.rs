@@ -5,20 +5,13 @@
 
 mod common;
 use common::{encode_default, encode_with, rel_l2};
-use sbrdf::encoder::{encode, EncodeOptions};
-use sbrdf::samples::SampleSet;
-use sbrdf::synth::{paper_grid, sample_material, Phong, SpectrumTable};
+use sbrdf::encode::encoder::{encode, EncodeOptions};
+use sbrdf::encode::samples::SampleSet;
+use sbrdf::io::synth::{paper_grid, sample_material, Phong};
 use sbrdf::{Decoder, SpectralBasis};
 
 fn phong(wl: &[f64], kd: f64, ks: f64, n: f64) -> Phong {
-    let t = SpectrumTable::colorchecker();
-    Phong {
-        diffuse: t.sample(t.find("green").unwrap(), wl).unwrap(),
-        specular: t.sample(t.find("white").unwrap(), wl).unwrap(),
-        kd,
-        ks,
-        n,
-    }
+    Phong::colorchecker("green", "white", (kd, ks, n), wl).unwrap()
 }
 
 fn samples(wl: &[f64], incidences: &[(f64, f64)], step: f64, p: &Phong) -> SampleSet {
@@ -52,8 +45,8 @@ fn decode_everywhere(set: &SampleSet, dec: &Decoder) -> f64 {
         for &to in &thetas {
             for po in [0.0, 90.0, 179.999, 180.0, 180.001, 359.0] {
                 for pi in [0.0, 45.0] {
-                    let wi = sbrdf::angles::dir_from_deg(ti, pi).map(|v| v as f32);
-                    let wo = sbrdf::angles::dir_from_deg(to, po).map(|v| v as f32);
+                    let wi = sbrdf::model::angles::dir_from_deg(ti, pi).map(|v| v as f32);
+                    let wo = sbrdf::model::angles::dir_from_deg(to, po).map(|v| v as f32);
                     dec.eval(wi, wo, &probe, &mut o32);
                     assert!(
                         o32.iter().all(|v| v.is_finite()),
@@ -69,7 +62,7 @@ fn decode_everywhere(set: &SampleSet, dec: &Decoder) -> f64 {
     rel_l2(&approx, &truth)
 }
 
-fn assert_reported(e: &sbrdf::encoder::Encoded, decoded: f64) {
+fn assert_reported(e: &sbrdf::encode::encoder::Encoded, decoded: f64) {
     assert!(
         (decoded - e.rel_error).abs() <= 1e-4 * e.rel_error.max(1e-6) + 1e-7,
         "decoded error {decoded} vs reported {}",

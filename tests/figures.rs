@@ -171,16 +171,16 @@ fn plot_coefficients_add_up() {
     // Library view: background + peak = reconstruction, and the reconstruction of a0 matches
     // the samples' a0 to within the record's error.
     let dec = sbrdf::Decoder::open(sample("samples/golden/phong_3inc_paper.sbrdf")).unwrap();
-    let (set, _) = sbrdf::input::read_inputs(&[sample("samples/golden/phong_3inc.csv")]).unwrap();
-    let p = sbrdf::figures::coefficient_plot(
+    let (set, _) = sbrdf::io::read_inputs(&[sample("samples/golden/phong_3inc.csv")]).unwrap();
+    let p = sbrdf::report::plot::coefficient_plot(
         &dec,
         "phong",
         Some(&set),
-        &sbrdf::figures::PlotOptions {
+        &sbrdf::report::plot::PlotOptions {
             incident: (30.0, 0.0),
             coefficient: 0,
             outgoing: Vec::new(),
-            kind: sbrdf::figures::ImageKind::Png,
+            kind: sbrdf::report::draw::ImageKind::Png,
         },
     )
     .unwrap();
@@ -200,7 +200,7 @@ fn plot_coefficients_add_up() {
         .iter()
         .enumerate()
         .fold((0, f64::MIN), |b, (i, &v)| if v > b.1 { (i, v) } else { b });
-    let (t, ph) = sbrdf::figures::HemisphereMap::centres(p.peak.rows, p.peak.columns)[imax];
+    let (t, ph) = sbrdf::report::draw::HemisphereMap::centres(p.peak.rows, p.peak.columns)[imax];
     assert!(
         (t - 30.0).abs() < 3.0 && (ph - 180.0).abs() < 4.0,
         "peak at ({t}, {ph})"
@@ -229,20 +229,20 @@ fn plotted_coefficients_are_what_the_decoder_evaluates() {
         let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
         let mut b = vec![0.0; m.spectral.terms];
         for rec in &m.records {
-            let sh = sbrdf::sh::ShBasis::new(rec.sh_level);
+            let sh = sbrdf::model::sh::ShBasis::new(rec.sh_level);
             let p = sh.count();
             let mut y = vec![0.0; p];
             let inc = (rec.theta_i as f64, rec.phi_i as f64);
-            let wi = sbrdf::angles::dir_from_deg(inc.0, inc.1);
+            let wi = sbrdf::model::angles::dir_from_deg(inc.0, inc.1);
             for t in (1..90).step_by(7) {
                 for ph in (0..360).step_by(13) {
                     let o = (t as f64, ph as f64);
-                    let wo = sbrdf::angles::dir_from_deg(o.0, o.1);
+                    let wo = sbrdf::model::angles::dir_from_deg(o.0, o.1);
                     sh.eval(wo, &mut y);
                     let c: Vec<f64> = (0..rec.terms)
                         .map(|k| {
                             (0..p).map(|j| rec.sh[k * p + j] as f64 * y[j]).sum::<f64>()
-                                + sbrdf::figures::lobes_value(rec, k, wi, wo)
+                                + sbrdf::report::plot::lobes_value(rec, k, wi, wo)
                         })
                         .collect();
                     let mut got = vec![0.0; wl.len()];
@@ -353,8 +353,8 @@ fn preview_is_a_lit_sphere_brightest_at_the_highlight() {
         assert!(luma(&img, 0, 0) < 60.0 && luma(&img, 159, 159) < 60.0);
         // The default light (45°, 135°): the half vector of light and camera is where the
         // highlight sits; compare it with the lit rim.
-        let l = sbrdf::angles::dir_from_deg(45.0, 135.0);
-        let h = sbrdf::angles::normalize([l[0], l[1], l[2] + 1.0]).unwrap();
+        let l = sbrdf::model::angles::dir_from_deg(45.0, 135.0);
+        let h = sbrdf::model::angles::normalize([l[0], l[1], l[2] + 1.0]).unwrap();
         let px = |v: f64| ((v * 0.9 + 1.0) / 2.0 * 160.0) as u32;
         let (hx, hy) = (px(h[0]), px(-h[1]));
         let mut highlight: f64 = 0.0;

@@ -4,7 +4,7 @@
 
 mod common;
 use common::*;
-use sbrdf::synth::{paper_grid, Phong};
+use sbrdf::io::synth::{paper_grid, Phong};
 use sbrdf::Decoder;
 
 fn error_at(dec: &Decoder, phong: &Phong, inc: (f64, f64)) -> f64 {

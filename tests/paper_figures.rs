@@ -4,8 +4,8 @@
 
 mod common;
 use common::*;
-use sbrdf::fit::{CriticalAngle, PeakMode};
-use sbrdf::spectral::{SpectralBasis, SpectralSpace};
+use sbrdf::encode::fit::{CriticalAngle, PeakMode};
+use sbrdf::model::spectral::{SpectralBasis, SpectralSpace};
 
 const INCIDENCE: [(f64, f64); 1] = [(15.0, 0.0)];
 
@@ -37,10 +37,10 @@ fn direct_sh_level_4_matches_fig_4() {
 
 /// The relative error of an SH-only record's series Σ_k Σ_j A(k, j)·Y_j(ω)·B_k(λ) as it stands,
 /// negative values included: what the paper measured.
-fn plain_series_error(m: &sbrdf::Material, set: &sbrdf::samples::SampleSet) -> f64 {
+fn plain_series_error(m: &sbrdf::Material, set: &sbrdf::encode::samples::SampleSet) -> f64 {
     let r = &m.records[0];
     assert!(r.lobes.is_empty());
-    let sh = sbrdf::sh::ShBasis::new(r.sh_level);
+    let sh = sbrdf::model::sh::ShBasis::new(r.sh_level);
     let p = sh.count();
     let mut y = vec![0.0; p];
     let mut b = vec![0.0; m.spectral.terms];
@@ -51,7 +51,7 @@ fn plain_series_error(m: &sbrdf::Material, set: &sbrdf::samples::SampleSet) -> f
         .iter()
         .zip(s.values.chunks(set.wavelengths.len()))
     {
-        sh.eval(sbrdf::angles::dir_from_deg(d[0], d[1]), &mut y);
+        sh.eval(sbrdf::model::angles::dir_from_deg(d[0], d[1]), &mut y);
         for (&l, &v) in set.wavelengths.iter().zip(row) {
             m.spectral.eval(l, &mut b);
             let rho: f64 = (0..r.terms)
@@ -183,7 +183,7 @@ fn joint_fit_with_the_papers_basis_reaches_its_spectral_floor() {
     let e = encode_with(&set, |o| {
         o.peak = PeakMode::Joint;
         o.sh_level = Some(4);
-        o.lobes = vec![sbrdf::joint::LobeFamily::CosinePower];
+        o.lobes = vec![sbrdf::encode::fit::LobeFamily::CosinePower];
     });
     assert!(e.rel_error < 0.078, "joint on Fourier: {}", e.rel_error);
 }

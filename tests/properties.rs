@@ -4,8 +4,8 @@
 
 mod common;
 use proptest::prelude::*;
-use sbrdf::encoder::{encode, EncodeOptions};
-use sbrdf::synth::{paper_grid, sample_material, Phong, SpectrumTable};
+use sbrdf::encode::encoder::{encode, EncodeOptions};
+use sbrdf::io::synth::{paper_grid, sample_material, Phong, SpectrumTable};
 use sbrdf::Decoder;
 
 fn golden_decoders() -> Vec<Decoder> {

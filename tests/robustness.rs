@@ -154,7 +154,7 @@ fn ctrl_c_during_an_encode_leaves_the_old_output() {
         &(0..24).map(|i| (i as f64 * 3.5, 0.0)).collect::<Vec<_>>(),
     );
     let mut text = Vec::new();
-    sbrdf::csv_input::write_wide(&set, &mut text, None).unwrap();
+    sbrdf::io::csv::write_wide(&set, &mut text, None).unwrap();
     std::fs::write(tmp.path().join("big.csv"), text).unwrap();
     std::fs::write(tmp.path().join("out.sbrdf"), "precious").unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_sbrdf"))

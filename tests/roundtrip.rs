@@ -4,12 +4,12 @@
 
 mod common;
 use common::*;
-use sbrdf::fit::PeakMode;
+use sbrdf::encode::fit::PeakMode;
 use sbrdf::{read_material, write_material, Decoder, Limits, Precision};
 
 /// Decodes every sample position of `set` and returns the relative error per incidence and
 /// overall.
-fn decode_error(dec: &Decoder, set: &sbrdf::samples::SampleSet) -> (Vec<f64>, f64) {
+fn decode_error(dec: &Decoder, set: &sbrdf::encode::samples::SampleSet) -> (Vec<f64>, f64) {
     let wl = &set.wavelengths;
     let (mut all_a, mut all_r) = (Vec::new(), Vec::new());
     let mut per = Vec::new();
@@ -158,8 +158,8 @@ fn vector_eval_agrees_with_angle_eval_and_respects_horizon() {
     let set = paper_samples(5.0, 15.0, &[(15.0, 0.0)]);
     let dec = Decoder::from_material(encode_with(&set, |_| {}).material).unwrap();
     let wl = [420.0f32, 550.0, 690.0];
-    let wi = sbrdf::angles::dir_from_deg(15.0, 0.0);
-    let wo = sbrdf::angles::dir_from_deg(20.0, 170.0);
+    let wi = sbrdf::model::angles::dir_from_deg(15.0, 0.0);
+    let wo = sbrdf::model::angles::dir_from_deg(20.0, 170.0);
     let f = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32];
     let mut a = [0.0f32; 3];
     dec.eval(f(wi), f(wo), &wl, &mut a);
@@ -202,7 +202,6 @@ fn golden_files_decode_to_their_source_material() {
     let golden = samples_dir().join("golden");
     let manifest = std::fs::read_to_string(golden.join("MANIFEST")).unwrap();
     let mut checked = 0;
-    let t = sbrdf::synth::SpectrumTable::colorchecker();
     for line in manifest
         .lines()
         .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
@@ -222,31 +221,22 @@ fn golden_files_decode_to_their_source_material() {
         let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
         let truth_fn: Box<MaterialFn> = match f[0] {
             "phong" => {
-                let phong = sbrdf::synth::Phong {
-                    diffuse: t.sample(t.find(f[1]).unwrap(), &wl).unwrap(),
-                    specular: t.sample(t.find(f[2]).unwrap(), &wl).unwrap(),
-                    kd: f[3].parse().unwrap(),
-                    ks: f[4].parse().unwrap(),
-                    n: f[5].parse().unwrap(),
-                };
+                let kd_ks_n = (
+                    f[3].parse().unwrap(),
+                    f[4].parse().unwrap(),
+                    f[5].parse().unwrap(),
+                );
+                let phong =
+                    sbrdf::io::synth::Phong::colorchecker(f[1], f[2], kd_ks_n, &wl).unwrap();
                 Box::new(move |i, o, w| phong.value(i, o, w))
             }
             "ggx" => {
-                let ggx = sbrdf::synth::Ggx {
-                    alpha: f[1].parse().unwrap(),
-                    diffuse: t.sample(t.find(f[2]).unwrap(), &wl).unwrap(),
-                    f0: t
-                        .sample(t.find(f[3]).unwrap(), &wl)
-                        .unwrap()
-                        .iter()
-                        .map(|v| 0.04 + 0.5 * v)
-                        .collect(),
-                    kd: f[4].parse().unwrap(),
-                };
+                let (alpha, kd) = (f[1].parse().unwrap(), f[4].parse().unwrap());
+                let ggx = sbrdf::io::synth::Ggx::colorchecker(alpha, kd, f[2], f[3], &wl).unwrap();
                 Box::new(move |i, o, w| ggx.value(i, o, w))
             }
             "abc" => {
-                let abc = sbrdf::synth::Abc::from_table(f[1], f[2], &wl).unwrap();
+                let abc = sbrdf::io::synth::Abc::from_table(f[1], f[2], &wl).unwrap();
                 Box::new(move |i, o, w| abc.value(i, o, w))
             }
             other => panic!("unknown source {other}"),

@@ -7,7 +7,7 @@
 
 mod common;
 use common::*;
-use sbrdf::fit::PeakMode;
+use sbrdf::encode::fit::PeakMode;
 use sbrdf::Decoder;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
@@ -29,7 +29,7 @@ impl XorShift {
 }
 
 fn dir(theta_deg: f64, phi_deg: f64) -> [f32; 3] {
-    let d = sbrdf::angles::dir_from_deg(theta_deg, phi_deg);
+    let d = sbrdf::model::angles::dir_from_deg(theta_deg, phi_deg);
     [d[0] as f32, d[1] as f32, d[2] as f32]
 }
 
@@ -156,7 +156,7 @@ fn hemisphere(nt: usize, np: usize, mut f: impl FnMut(usize, usize, [f32; 3], f6
 /// The (θ, φ) bin of a direction on an nt × np grid over the upper hemisphere.
 fn bin_of(w: [f32; 3], nt: usize, np: usize) -> usize {
     let w = [w[0] as f64, w[1] as f64, w[2] as f64];
-    let (t, p) = sbrdf::angles::deg_from_dir(w);
+    let (t, p) = sbrdf::model::angles::deg_from_dir(w);
     let i = ((t / 90.0 * nt as f64) as usize).min(nt - 1);
     let j = ((p / 360.0 * np as f64) as usize).min(np - 1);
     i * np + j
@@ -424,8 +424,8 @@ fn no_decoded_value_is_negative() {
         Decoder::from_material(e.material).unwrap()
     };
     let abc = {
-        let a =
-            sbrdf::synth::Abc::from_table("gray-plastic", "magenta", &paper_wavelengths()).unwrap();
+        let a = sbrdf::io::synth::Abc::from_table("gray-plastic", "magenta", &paper_wavelengths())
+            .unwrap();
         let incidences = [(0.0, 0.0), (30.0, 0.0), (60.0, 0.0), (85.0, 0.0)];
         let set = sample_on_paper_grid(&incidences, |i, o, w| a.value(i, o, w));
         Decoder::from_material(encode_default(&set, |_| {}).material).unwrap()

@@ -1,15 +1,15 @@
 //! Spectral bases on real spectra: the 24 ColorChecker patches, 400–700 nm every 10 nm.
 
 mod common;
-use sbrdf::fit::spectral_projection;
-use sbrdf::spectral::SpectralBasis;
-use sbrdf::synth::SpectrumTable;
+use sbrdf::encode::fit::spectral_projection;
+use sbrdf::io::synth::SpectrumTable;
+use sbrdf::model::spectral::SpectralBasis;
 
 /// Mean and max relative L2 error of 13-term approximations of the 24 patches.
 fn colorchecker_errors(basis: SpectralBasis) -> (f64, f64) {
     let t = SpectrumTable::colorchecker();
     let wl = common::paper_wavelengths();
-    let space = sbrdf::encoder::spectral_space(basis, 13, &wl);
+    let space = sbrdf::encode::basis::spectral_space(basis, 13, &wl);
     let proj = spectral_projection(&space, &wl);
     let syn = space.synthesis(&wl);
     let mut errs = Vec::new();

@@ -14,7 +14,7 @@ fn ok(o: &Output) -> String {
 }
 
 /// Relative L2 error of a file against a sample set, as `decode --like` measures it.
-fn error_against(file: &Path, set: &sbrdf::samples::SampleSet) -> f64 {
+fn error_against(file: &Path, set: &sbrdf::encode::samples::SampleSet) -> f64 {
     let dec = Decoder::open(file).unwrap();
     let wl = &set.wavelengths;
     let mut out = vec![0.0; wl.len()];
@@ -68,7 +68,7 @@ fn tradeoff_rows_reproduce_with_encode() {
     let svg = std::fs::read_to_string(tmp.path().join("r.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("Pareto") && svg.contains("file size"));
 
-    let (set, _) = sbrdf::input::read_inputs(&[input]).unwrap();
+    let (set, _) = sbrdf::io::read_inputs(&[input]).unwrap();
     // Every row: re-encode with its options, compare error (within 10%) and bytes (equal).
     for (i, r) in rows.iter().enumerate() {
         let out = format!("row{i}.sbrdf");

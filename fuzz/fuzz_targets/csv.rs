@@ -3,5 +3,5 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = sbrdf::csv_input::read_samples_from_bytes(&[("fuzz.csv".to_string(), data.to_vec())]);
+    let _ = sbrdf::io::csv::read_samples_from_bytes(&[("fuzz.csv".to_string(), data.to_vec())]);
 });

@@ -5,7 +5,7 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    if sbrdf::exr_io::read_slice("fuzz_ti15_pi0.exr", data).is_ok() {
-        let _ = sbrdf::input::read_inputs_from_bytes(&[("fuzz_ti15_pi0.exr".into(), data.to_vec())]);
+    if sbrdf::io::exr::read_slice("fuzz_ti15_pi0.exr", data).is_ok() {
+        let _ = sbrdf::io::read_inputs_from_bytes(&[("fuzz_ti15_pi0.exr".into(), data.to_vec())]);
     }
 });

@@ -6,7 +6,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
-use sbrdf::settings::{encode_samples, EncodeSettings};
+use sbrdf::encode::settings::{encode_samples, EncodeSettings};
 use sbrdf::Decoder;
 use std::path::PathBuf;
 
@@ -170,7 +170,7 @@ impl Material {
     /// The description `sbrdf info --json` prints, as a dict.
     #[getter]
     fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let text = sbrdf::info::to_json(self.dec.material(), &self.name, self.bytes).to_string();
+        let text = sbrdf::encode::info::to_json(self.dec.material(), &self.name, self.bytes).to_string();
         py.import("json")?.call_method1("loads", (text,))
     }
 
@@ -252,18 +252,18 @@ fn encode(
     }
     let (set, report, inputs) = if let Ok(d) = samples.downcast::<PyDict>() {
         let mut columns: Vec<Vec<f64>> = Vec::with_capacity(6);
-        for c in sbrdf::input::COLUMNS {
+        for c in sbrdf::io::COLUMNS {
             let v = d.get_item(c)?.ok_or_else(|| {
                 Error::new_err(format!(
                     "samples: no '{c}' array (give {})",
-                    sbrdf::input::COLUMNS.join(", ")
+                    sbrdf::io::COLUMNS.join(", ")
                 ))
             })?;
             let a: PyArrayLike1<'_, f64, AllowTypeChange> = v.extract()?;
             columns.push(a.as_array().iter().copied().collect());
         }
         let refs: [&[f64]; 6] = std::array::from_fn(|i| columns[i].as_slice());
-        let (set, report) = sbrdf::input::samples_from_columns("samples", refs).map_err(err)?;
+        let (set, report) = sbrdf::io::samples_from_columns("samples", refs).map_err(err)?;
         (set, report, vec!["<arrays>".to_string()])
     } else {
         let paths: Vec<PathBuf> = if let Ok(p) = samples.extract::<PathBuf>() {
@@ -274,7 +274,7 @@ fn encode(
             })?
         };
         let (set, report) = py
-            .allow_threads(|| sbrdf::input::read_inputs(&paths))
+            .allow_threads(|| sbrdf::io::read_inputs(&paths))
             .map_err(err)?;
         let names = paths.iter().map(|p| p.display().to_string()).collect();
         (set, report, names)
@@ -282,7 +282,7 @@ fn encode(
     let outcome = py
         .allow_threads(|| -> sbrdf::Result<_> {
             let o = encode_samples(set, &report, &inputs, &settings)?;
-            sbrdf::output::write_bytes_atomic(&out_path, &o.bytes)?;
+            sbrdf::io::output::write_bytes_atomic(&out_path, &o.bytes)?;
             Ok(o)
         })
         .map_err(err)?;

@@ -1,9 +1,9 @@
 #![allow(dead_code)]
 //! Shared helpers: the paper's test materials, built from the shipped ColorChecker spectra.
 
-use sbrdf::encoder::{encode, EncodeOptions, Encoded};
-use sbrdf::samples::SampleSet;
-use sbrdf::synth::{paper_grid, sample_material, Phong, SpectrumTable};
+use sbrdf::encode::encoder::{encode, EncodeOptions, Encoded};
+use sbrdf::encode::samples::SampleSet;
+use sbrdf::io::synth::{paper_grid, sample_material, Phong, SpectrumTable};
 
 /// 400–700 nm every 10 nm, as in the paper.
 pub fn paper_wavelengths() -> Vec<f64> {
@@ -12,15 +12,7 @@ pub fn paper_wavelengths() -> Vec<f64> {
 
 /// The paper's Phong material: ColorChecker green diffuse, white specular, kd = 1.
 pub fn paper_phong(ks: f64, n: f64) -> Phong {
-    let t = SpectrumTable::colorchecker();
-    let wl = paper_wavelengths();
-    Phong {
-        diffuse: t.sample(t.find("green").unwrap(), &wl).unwrap(),
-        specular: t.sample(t.find("white").unwrap(), &wl).unwrap(),
-        kd: 1.0,
-        ks,
-        n,
-    }
+    Phong::colorchecker("green", "white", (1.0, ks, n), &paper_wavelengths()).unwrap()
 }
 
 /// The paper's setup: θo = 2.5…87.5°, φo = 0…355° every 5°, at the given incidences.
@@ -79,8 +71,8 @@ pub fn colorchecker(name: &str) -> Vec<f64> {
 }
 
 fn half(wi: [f64; 3], wo: [f64; 3]) -> (f64, f64) {
-    let h = sbrdf::angles::normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]).unwrap();
-    (h[2], sbrdf::angles::dot(wi, h))
+    let h = sbrdf::model::angles::normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]).unwrap();
+    (h[2], sbrdf::model::angles::dot(wi, h))
 }
 
 /// A material outside every lobe family of the encoder: Beckmann distribution, separable
@@ -90,8 +82,8 @@ pub fn beckmann(alpha: f64) -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
     let green = colorchecker("green");
     let wl = paper_wavelengths();
     move |i, o, w| {
-        let wi = sbrdf::angles::dir_from_deg(i.0, i.1);
-        let wo = sbrdf::angles::dir_from_deg(o.0, o.1);
+        let wi = sbrdf::model::angles::dir_from_deg(i.0, i.1);
+        let wo = sbrdf::model::angles::dir_from_deg(o.0, o.1);
         let (ci, co) = (wi[2], wo[2]);
         let base = 0.5 * green[w] / std::f64::consts::PI;
         if ci <= 0.0 || co <= 0.0 {
@@ -109,7 +101,7 @@ pub fn beckmann(alpha: f64) -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
             }
         };
         let eta = 1.5 * (1.0 + 0.02 * (550.0 - wl[w]) / 150.0);
-        let f = sbrdf::synth::fresnel_dielectric(eta, cd);
+        let f = sbrdf::io::synth::fresnel_dielectric(eta, cd);
         base + d * g1(ci) * g1(co) * f / (4.0 * ci * co)
     }
 }
@@ -117,13 +109,13 @@ pub fn beckmann(alpha: f64) -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
 /// Two GGX layers (a clear coat α = 0.05 with F0 = 0.04 over a coloured α = 0.4 metal with F0 =
 /// the 'orange yellow' patch) plus 0.3·purple Lambert: two lobes of very different widths.
 pub fn two_layer() -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
-    let coat = sbrdf::synth::Ggx {
+    let coat = sbrdf::io::synth::Ggx {
         alpha: 0.05,
         kd: 0.0,
         diffuse: vec![0.0; 31],
         f0: vec![0.04; 31],
     };
-    let metal = sbrdf::synth::Ggx {
+    let metal = sbrdf::io::synth::Ggx {
         alpha: 0.4,
         kd: 0.0,
         diffuse: vec![0.0; 31],
@@ -131,24 +123,16 @@ pub fn two_layer() -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
     };
     let purple = colorchecker("purple");
     move |i, o, w| {
-        let wi = sbrdf::angles::dir_from_deg(i.0, i.1);
-        let wo = sbrdf::angles::dir_from_deg(o.0, o.1);
+        let wi = sbrdf::model::angles::dir_from_deg(i.0, i.1);
+        let wo = sbrdf::model::angles::dir_from_deg(o.0, o.1);
         coat.specular(wi, wo, coat.f0[w])
             + metal.specular(wi, wo, metal.f0[w])
             + 0.3 * purple[w] / std::f64::consts::PI
     }
 }
 
-pub fn ggx(alpha: f64) -> sbrdf::synth::Ggx {
-    sbrdf::synth::Ggx {
-        alpha,
-        kd: 1.0,
-        diffuse: colorchecker("blue"),
-        f0: colorchecker("yellow")
-            .iter()
-            .map(|v| 0.04 + 0.5 * v)
-            .collect(),
-    }
+pub fn ggx(alpha: f64) -> sbrdf::io::synth::Ggx {
+    sbrdf::io::synth::Ggx::colorchecker(alpha, 1.0, "blue", "yellow", &paper_wavelengths()).unwrap()
 }
 
 /// Ten MERL materials from the ABC fits, each with its own ColorChecker diffuse colour.

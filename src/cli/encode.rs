@@ -1,0 +1,193 @@
+//! `sbrdf encode`: its flags, mapped onto the library's option set
+//! ([`sbrdf::encode::settings::EncodeSettings`]), which the Python binding shares.
+
+use clap::{Args, ValueEnum};
+use sbrdf::encode::fit::{LobeFamily, PeakMode};
+use sbrdf::encode::settings::{self, EncodeSettings};
+use sbrdf::encode::EncodeOptions;
+use sbrdf::io::output::write_bytes_atomic;
+use sbrdf::{Precision, Result, SpectralBasis};
+use std::path::PathBuf;
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum BasisArg {
+    /// The paper's periodic Fourier series (a0, a1, b1, a2, b2, …).
+    Fourier,
+    /// Cosine series (DCT): no wrap-around between the ends of the spectrum.
+    Cosine,
+    /// Derived from the data (leading singular vectors, stored in the file); --terms is the rank.
+    Data,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum PeakArg {
+    /// SH background + Gaussian peak (the paper's method).
+    Paper,
+    /// SH only (the paper's baseline).
+    None,
+    /// SH background and lobe amplitudes fitted together, lobe width searched (no critical angle).
+    Joint,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum LobeArg {
+    /// Phong's lobe: a power of the cosine of the angle from the peak direction.
+    CosinePower,
+    /// A Gaussian in the angle from the peak direction.
+    Gaussian,
+    /// A microfacet lobe in the half vector (1 − cos θh), with shadowing and Fresnel variants.
+    Microfacet,
+    /// The same in sin²θh (GGX-shaped).
+    MicrofacetSin2,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum PrecisionArg {
+    F32,
+    F16,
+}
+
+#[derive(Args)]
+pub struct EncodeArgs {
+    /// Inputs: CSV files (long or wide layout), spectral-EXR slices (one per incident
+    /// direction), or folders of them; all are merged.
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Output .sbrdf file (written atomically).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Spectral basis.
+    #[arg(long, value_enum, default_value = "data")]
+    pub basis: BasisArg,
+    /// Number of spectral terms K (13 = a0, a1..a6, b1..b6 for fourier) [default: 13 for
+    /// fourier and cosine; for data the smallest rank leaving ≤ half the error budget, ≤ 8].
+    #[arg(long)]
+    pub terms: Option<usize>,
+    /// Spherical-harmonic level L (with an error budget, the highest tried) [default: 6 with
+    /// --peak joint, 1 with --peak paper, 4 with --peak none].
+    #[arg(long)]
+    pub sh_level: Option<usize>,
+    /// How the specular peak is represented.
+    #[arg(long, value_enum, default_value = "joint")]
+    pub peak: PeakArg,
+    /// Critical angle in degrees around the peak, or `auto` to minimise the error.
+    #[arg(long, default_value = "auto")]
+    pub critical_angle: String,
+    /// Storage precision of coefficients (with an error budget, f16 records fall back to f32
+    /// where f16 misses it).
+    #[arg(long, value_enum, default_value = "f16")]
+    pub precision: PrecisionArg,
+    /// Lobe shapes the joint fit may use, per incidence the better one.
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "cosine-power,gaussian,microfacet,microfacet-sin2"
+    )]
+    pub lobes: Vec<LobeArg>,
+    /// Relative error budget per incident direction (0.01 = 1%): with --peak joint, the smallest
+    /// model (spectral terms, SH level, lobe, precision) meeting it. Given explicitly, the encode
+    /// fails where it cannot be met [default with --peak joint: 0.5%, best effort].
+    #[arg(long, value_name = "E")]
+    pub max_error: Option<String>,
+    /// With --max-error: write the most accurate model where the budget cannot be met, and
+    /// succeed.
+    #[arg(long)]
+    pub best_effort: bool,
+    /// Provenance recorded in the file's metadata (repeatable).
+    #[arg(long, value_name = "KEY=VALUE")]
+    pub metadata: Vec<String>,
+    /// Do not store the outgoing sample positions (smaller file; `decode` then needs --like).
+    #[arg(long)]
+    pub no_sample_positions: bool,
+    /// Keep only the input's wavelengths within MIN:MAX nm (what a scene renders).
+    #[arg(long, value_name = "MIN:MAX")]
+    pub wavelengths: Option<String>,
+    /// Keep only incident directions with θi ≤ DEG (what a scene's lights reach).
+    #[arg(long, value_name = "DEG")]
+    pub incident_max: Option<f64>,
+}
+
+pub fn cmd_encode(a: EncodeArgs) -> Result<()> {
+    let encoder = EncodeOptions {
+        basis: match a.basis {
+            BasisArg::Fourier => SpectralBasis::PeriodicFourier,
+            BasisArg::Cosine => SpectralBasis::Cosine,
+            BasisArg::Data => SpectralBasis::Tabulated,
+        },
+        terms: a.terms,
+        sh_level: a.sh_level,
+        peak: match a.peak {
+            PeakArg::Paper => PeakMode::Paper,
+            PeakArg::None => PeakMode::None,
+            PeakArg::Joint => PeakMode::Joint,
+        },
+        critical_angle: settings::parse_critical_angle(&a.critical_angle)?,
+        precision: match a.precision {
+            PrecisionArg::F32 => Precision::F32,
+            PrecisionArg::F16 => Precision::F16,
+        },
+        lobes: a
+            .lobes
+            .iter()
+            .map(|l| match l {
+                LobeArg::Gaussian => LobeFamily::Gaussian,
+                LobeArg::CosinePower => LobeFamily::CosinePower,
+                LobeArg::Microfacet => LobeFamily::Microfacet,
+                LobeArg::MicrofacetSin2 => LobeFamily::MicrofacetSin2,
+            })
+            .collect(),
+        sample_positions: !a.no_sample_positions,
+        provenance: a
+            .metadata
+            .iter()
+            .map(|kv| settings::parse_metadata(kv))
+            .collect::<Result<_>>()?,
+        // Resolved by EncodeSettings::options.
+        ..EncodeOptions::default()
+    };
+    let settings = EncodeSettings {
+        encoder,
+        max_error: a
+            .max_error
+            .as_deref()
+            .map(|e| settings::parse_fraction("max-error", e))
+            .transpose()?,
+        best_effort: a.best_effort,
+        wavelengths: a
+            .wavelengths
+            .as_deref()
+            .map(|w| settings::parse_window("wavelengths", w))
+            .transpose()?,
+        incident_max: a.incident_max,
+    };
+    let (set, report) = sbrdf::io::read_inputs(&a.inputs)?;
+    let inputs: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
+    let outcome = settings::encode_samples(set, &report, &inputs, &settings)?;
+    for m in &outcome.messages {
+        eprintln!("sbrdf: {m}");
+    }
+    let (bytes, encoded, set) = (outcome.bytes, outcome.encoded, outcome.samples);
+    write_bytes_atomic(&a.output, &bytes)?;
+    let worst = encoded
+        .material
+        .records
+        .iter()
+        .max_by(|x, y| x.rel_error.total_cmp(&y.rel_error))
+        .unwrap();
+    eprintln!(
+        "sbrdf: wrote {}: {} incident directions, {} wavelengths, {} bytes (raw float32 samples: {} \
+         bytes, ratio {:.1}); relative error {:.4} overall, worst {:.4} at ({}, {})",
+        a.output.display(),
+        encoded.material.records.len(),
+        set.wavelengths.len(),
+        bytes.len(),
+        encoded.raw_bytes,
+        encoded.raw_bytes as f64 / bytes.len() as f64,
+        encoded.rel_error,
+        worst.rel_error,
+        worst.theta_i,
+        worst.phi_i
+    );
+    Ok(())
+}

@@ -1,0 +1,152 @@
+//! `sbrdf eval`, `sbrdf info` and `sbrdf verify`: looking into a file.
+
+use super::parse::parse_pair;
+use clap::Args;
+use sbrdf::{Decoder, Error, Result};
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct EvalArgs {
+    pub input: PathBuf,
+    /// Incident direction θ,φ in degrees.
+    #[arg(long, value_name = "θ,φ", allow_hyphen_values = true)]
+    pub incident: String,
+    /// Outgoing direction θ,φ in degrees.
+    #[arg(long, value_name = "θ,φ", allow_hyphen_values = true)]
+    pub outgoing: String,
+    /// Wavelengths in nm [default: the file's samples].
+    #[arg(long, value_delimiter = ',', value_name = "λ1,λ2,...")]
+    pub wavelengths: Option<Vec<f64>>,
+}
+
+#[derive(Args)]
+pub struct InfoArgs {
+    pub input: PathBuf,
+    /// Machine-readable output.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct VerifyArgs {
+    pub input: PathBuf,
+}
+
+pub fn cmd_eval(a: EvalArgs) -> Result<()> {
+    let dec = Decoder::open(&a.input)?;
+    let inc = parse_pair("incident", &a.incident)?;
+    let outg = parse_pair("outgoing", &a.outgoing)?;
+    if !(0.0..=90.0).contains(&inc.0) {
+        return Err(Error::Parameter(format!(
+            "--incident θ = {} is outside [0, 90] degrees",
+            inc.0
+        )));
+    }
+    if outg.0 < 0.0 || outg.0 > 180.0 {
+        return Err(Error::Parameter(format!(
+            "--outgoing θ = {} is outside [0, 180] degrees",
+            outg.0
+        )));
+    }
+    let m = dec.material();
+    let wl: Vec<f64> = match a.wavelengths {
+        Some(w) => w,
+        None => m.wavelengths.iter().map(|&w| w as f64).collect(),
+    };
+    let (lo, hi) = (m.spectral.lambda_min, m.spectral.lambda_max);
+    if let Some(l) = wl
+        .iter()
+        .find(|l| !(l.is_finite() && **l >= lo && **l <= hi))
+    {
+        return Err(Error::Parameter(format!(
+            "--wavelengths {l} is outside the file's range {lo}–{hi} nm"
+        )));
+    }
+    let mut out = vec![0.0; wl.len()];
+    dec.eval_deg(inc, outg, &wl, &mut out);
+    println!("wavelength_nm,value");
+    for (l, v) in wl.iter().zip(&out) {
+        println!("{l},{v}");
+    }
+    Ok(())
+}
+
+pub fn cmd_info(a: InfoArgs) -> Result<()> {
+    let len = std::fs::metadata(&a.input)
+        .map_err(|e| Error::Io {
+            path: Some(a.input.clone()),
+            source: e,
+        })?
+        .len();
+    let dec = Decoder::open(&a.input)?;
+    let m = dec.material();
+    if a.json {
+        let v = sbrdf::encode::info::to_json(m, &a.input.display().to_string(), len);
+        println!("{}", serde_json::to_string_pretty(&v).unwrap());
+        return Ok(());
+    }
+    println!("file:           {} ({len} bytes)", a.input.display());
+    println!(
+        "format:         sbrdf {}.{}",
+        sbrdf::format::VERSION_MAJOR,
+        m.version_minor
+    );
+    println!(
+        "spectral basis: {}, {} terms over [{}, {}] nm",
+        m.spectral.basis.name(),
+        m.spectral.terms,
+        m.spectral.lambda_min,
+        m.spectral.lambda_max
+    );
+    println!(
+        "wavelengths:    {} samples, {}–{} nm",
+        m.wavelengths.len(),
+        m.wavelengths[0],
+        m.wavelengths.last().unwrap()
+    );
+    println!(
+        "SH level:       {} ({} coefficients per term)",
+        m.sh_level,
+        m.sh_count()
+    );
+    println!("precision:      {}", m.precision_name());
+    println!(
+        "incidences:     {}{}",
+        m.records.len(),
+        if m.isotropic {
+            " (isotropic: φi = 0 only)"
+        } else {
+            ""
+        }
+    );
+    println!("records:        θi      φi      θp      φp      critical  lobes  rel_error");
+    for r in &m.records {
+        println!(
+            "                {:<7} {:<7} {:<7.3} {:<7.3} {:<9.2} {:<6} {:.5}",
+            r.theta_i,
+            r.phi_i,
+            r.theta_p,
+            r.phi_p,
+            r.critical_angle,
+            r.lobes.len(),
+            r.rel_error
+        );
+    }
+    if let Some(meta) = &m.metadata {
+        println!("metadata:       {meta}");
+    }
+    Ok(())
+}
+
+pub fn cmd_verify(a: VerifyArgs) -> Result<()> {
+    let dec = Decoder::open(&a.input)?;
+    let m = dec.material();
+    println!(
+        "ok: {}: sbrdf {}.{}, {} records; every CRC and the structure check out",
+        a.input.display(),
+        sbrdf::format::VERSION_MAJOR,
+        m.version_minor,
+        m.records.len()
+    );
+    Ok(())
+}

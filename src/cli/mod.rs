@@ -1,0 +1,11 @@
+//! The program's subcommands, one module per subcommand or group: each holds its flags (clap)
+//! and a thin body that calls the library.
+
+pub mod decode;
+pub mod encode;
+pub mod figures;
+pub mod inspect;
+pub mod parse;
+pub mod subset;
+pub mod synth;
+pub mod tradeoff;

@@ -1,0 +1,143 @@
+//! The decoder: opens a file once, then answers ρ(ωi, ωo, λ) without allocating, and draws
+//! outgoing directions in proportion to it.
+
+use super::evaluator::Evaluator;
+use super::sampling::{self, Sample, SamplingWeights};
+use crate::error::{Error, Result};
+use crate::format::{read_material, Limits};
+use crate::model::material::Material;
+use std::path::Path;
+
+/// A validated material plus what makes evaluation cheap. `Send + Sync`: one decoder can serve
+/// every render thread.
+///
+/// An incident direction that is not stored is answered by interpolating the *parameters* of the
+/// neighbouring records (SH coefficients, lobe amplitudes and shapes, the peak's offset from the
+/// mirror direction) and evaluating once, so a specular peak moves with the incident direction
+/// instead of cross-fading between two peaks (`spec/EVALUATION.md`, "Between stored incidences").
+#[derive(Debug, Clone)]
+pub struct Decoder {
+    evaluator: Evaluator,
+    /// Per record, the energy of the background and of each lobe: the mixture weights of
+    /// importance sampling ([`super::sampling`]). Computed on first use, once: they cost three
+    /// times the rest of opening a file, which a decoder that only evaluates need not pay.
+    sampling: std::sync::OnceLock<SamplingWeights>,
+}
+
+impl Decoder {
+    /// Parses a file held in memory, with the default [`Limits`].
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self> {
+        Self::from_bytes_with_limits(bytes, &Limits::default())
+    }
+
+    pub fn from_bytes_with_limits(bytes: &[u8], limits: &Limits) -> Result<Self> {
+        Self::from_material(read_material(bytes, limits)?)
+    }
+
+    /// Reads and parses a file; refuses files above the default size limit before reading them.
+    pub fn open(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let limits = Limits::default();
+        let len = std::fs::metadata(path)
+            .map_err(|e| Error::io(path, e))?
+            .len();
+        if len > limits.max_file_bytes as u64 {
+            return Err(Error::LimitsExceeded(format!(
+                "{}: {len} bytes exceeds the limit of {} bytes",
+                path.display(),
+                limits.max_file_bytes
+            )));
+        }
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Self::from_bytes_with_limits(&bytes, &limits).map_err(|e| match e {
+            Error::Format { at, message } => Error::Format {
+                at,
+                message: format!("{}: {message}", path.display()),
+            },
+            Error::Unsupported { at, message } => Error::Unsupported {
+                at,
+                message: format!("{}: {message}", path.display()),
+            },
+            other => other,
+        })
+    }
+
+    /// Wraps a material built in memory (by the encoder, say), validating it first.
+    pub fn from_material(material: Material) -> Result<Self> {
+        material
+            .validate()
+            .map_err(|e| Error::Parameter(format!("invalid material: {e}")))?;
+        Ok(Decoder {
+            evaluator: Evaluator::new(material),
+            sampling: std::sync::OnceLock::new(),
+        })
+    }
+
+    pub fn material(&self) -> &Material {
+        &self.evaluator.material
+    }
+
+    pub fn into_material(self) -> Material {
+        self.evaluator.material
+    }
+
+    /// ρ at unit vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame
+    /// (z = normal), for each wavelength in nm, into `out` (1/sr); never negative (the series is
+    /// clamped at 0, `spec/EVALUATION.md`). Directions below the horizon give 0; so do zero or
+    /// non-finite vectors. Wavelengths outside the file's spectral interval are clamped to it;
+    /// incident directions outside the stored θ range are clamped to it. Writes
+    /// `min(wavelengths.len(), out.len())` values; never allocates.
+    #[inline]
+    pub fn eval(&self, wi: [f32; 3], wo: [f32; 3], wavelengths: &[f32], out: &mut [f32]) {
+        self.evaluator.eval(wi, wo, wavelengths, out)
+    }
+
+    /// Convenience form of [`Decoder::eval`] with angles in degrees.
+    pub fn eval_deg(
+        &self,
+        incident: (f64, f64),
+        outgoing: (f64, f64),
+        wavelengths: &[f64],
+        out: &mut [f64],
+    ) {
+        self.evaluator
+            .eval_deg(incident, outgoing, wavelengths, out)
+    }
+
+    /// Computes the importance-sampling weights now rather than on the first call of
+    /// [`Decoder::sample`] or [`Decoder::pdf`] (the only call that allocates): for renderers
+    /// that want every later call allocation-free. Thread-safe; later calls do nothing.
+    pub fn prepare_sampling(&self) {
+        self.sampling_weights();
+    }
+
+    fn sampling_weights(&self) -> &SamplingWeights {
+        self.sampling
+            .get_or_init(|| SamplingWeights::new(&self.evaluator))
+    }
+
+    /// Draws an outgoing direction (toward the viewer) for the incident direction `wi` (toward
+    /// the light; local frame, z = normal, need not be unit length) from two uniform numbers
+    /// in [0, 1). The density is the same for every wavelength: a mixture of the stored lobes'
+    /// shapes and a cosine, weighted by the energy of each in the spectrum-averaged BRDF times
+    /// cos θo. The returned `pdf` (1/sr, over solid angle) is exactly [`Decoder::pdf`] at the
+    /// returned direction. None when `wi` is below the horizon, zero or not finite, or a `u`
+    /// is not finite. Never allocates after the first call (see
+    /// [`Decoder::prepare_sampling`]). Details: `spec/EVALUATION.md`, "Importance sampling".
+    ///
+    /// A path tracer that starts at the camera knows the direction toward the viewer, not the
+    /// light: it passes that one as `wi` and uses the drawn direction as the light's, which is
+    /// right to the extent that the material is reciprocal (ρ(wi, wo) = ρ(wo, wi)); the stored
+    /// BRDF is reciprocal exactly as far as its input and its fit are (`tests/sampling.rs`
+    /// reports how far).
+    pub fn sample(&self, wi: [f32; 3], u: [f32; 2]) -> Option<Sample> {
+        sampling::sample(&self.evaluator, self.sampling_weights(), wi, u)
+    }
+
+    /// The density (1/sr, over solid angle) with which [`Decoder::sample`] draws `wo` for `wi`:
+    /// 0 when either is below the horizon, zero or not finite; otherwise > 0 wherever
+    /// cos θo > 0. Never allocates.
+    pub fn pdf(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
+        sampling::pdf(&self.evaluator, self.sampling_weights(), wi, wo)
+    }
+}

@@ -1,0 +1,246 @@
+//! Where a query falls among the stored incidences: its incident direction in the records'
+//! frame, how the stored incidences are arranged (a θ line, a θ×φ grid, or scattered), and the
+//! records to blend with their weights (`spec/EVALUATION.md`, "Between stored incidences").
+
+use crate::model::angles::{dir_from_deg, dot};
+use crate::model::material::Material;
+
+/// A query's incident direction turned into the frame its records are stored in: for isotropic
+/// files rotated about z so that its azimuth is 0 (`spec/EVALUATION.md`, "Reconstruction",
+/// step 3).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct QueryFrame {
+    /// θ and φ of the incident direction in that frame, degrees.
+    pub theta: f64,
+    pub phi: f64,
+    /// The unit incident vector in that frame.
+    pub wi: [f64; 3],
+    /// (cos ψ, sin ψ) of the rotation by −ψ into the frame; None when there is none.
+    pub rotation: Option<(f64, f64)>,
+}
+
+impl QueryFrame {
+    /// A vector of the local frame in the records' frame.
+    #[inline]
+    pub fn in_frame(self, v: [f64; 3]) -> [f64; 3] {
+        match self.rotation {
+            Some((c, s)) => [c * v[0] + s * v[1], -s * v[0] + c * v[1], v[2]],
+            None => v,
+        }
+    }
+
+    /// A vector of the records' frame back in the local frame.
+    #[inline]
+    pub fn out_of_frame(self, v: [f64; 3]) -> [f64; 3] {
+        match self.rotation {
+            Some((c, s)) => [c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]],
+            None => v,
+        }
+    }
+}
+
+/// A single-precision vector widened and normalised with one reciprocal (a division per
+/// component costs more); None when it is zero or not finite.
+#[inline]
+pub(crate) fn unit(v: [f32; 3]) -> Option<[f64; 3]> {
+    let v = [v[0] as f64, v[1] as f64, v[2] as f64];
+    let n = dot(v, v).sqrt();
+    (n.is_finite() && n > 0.0).then(|| {
+        let s = 1.0 / n;
+        [v[0] * s, v[1] * s, v[2] * s]
+    })
+}
+
+/// How stored incidences are arranged, which decides how a query is interpolated.
+#[derive(Debug, Clone)]
+pub(crate) enum Lattice {
+    /// Isotropic files: records in increasing θi, all at φi = 0; linear in θ.
+    Theta(Axis),
+    /// Every combination of some θ values and some φ values: bilinear, φ wrapping at 360°.
+    Grid {
+        thetas: Axis,
+        phis: Axis,
+        /// Record index of (θ_i, φ_j) at i·phis.len() + j.
+        index: Vec<usize>,
+    },
+    /// Scattered incidences: the nearest stored one.
+    Nearest,
+}
+
+/// Up to four records and their weights (summing to 1).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Blend {
+    pub n: usize,
+    pub rec: [usize; 4],
+    pub w: [f64; 4],
+}
+
+impl Blend {
+    pub(crate) fn one(r: usize) -> Self {
+        Blend {
+            n: 1,
+            rec: [r, 0, 0, 0],
+            w: [1.0, 0.0, 0.0, 0.0],
+        }
+    }
+    pub(crate) fn push(&mut self, r: usize, w: f64) {
+        if w <= 0.0 {
+            return;
+        }
+        if let Some(i) = self.rec[..self.n].iter().position(|&x| x == r) {
+            self.w[i] += w;
+        } else {
+            self.rec[self.n] = r;
+            self.w[self.n] = w;
+            self.n += 1;
+        }
+    }
+}
+
+/// Strictly increasing stored angles along one axis of the incidence lattice.
+#[derive(Debug, Clone)]
+pub(crate) struct Axis {
+    pub(crate) xs: Vec<f64>,
+    /// (n − 1)/(last − first): the cell of an evenly spaced axis (the usual one) is guessed with
+    /// one multiplication, then checked; a search settles anything else.
+    inv_step: f64,
+}
+
+impl Axis {
+    fn new(xs: Vec<f64>) -> Self {
+        let n = xs.len();
+        let inv_step = if n > 1 {
+            (n - 1) as f64 / (xs[n - 1] - xs[0])
+        } else {
+            0.0
+        };
+        Axis { xs, inv_step }
+    }
+
+    fn first(&self) -> f64 {
+        self.xs[0]
+    }
+
+    fn last(&self) -> f64 {
+        self.xs[self.xs.len() - 1]
+    }
+
+    /// Index i and fraction t with xs[i] ≤ x ≤ xs[i+1] (x clamped to the range).
+    fn bracket(&self, x: f64) -> (usize, f64) {
+        let xs = &self.xs;
+        if xs.len() == 1 || x.is_nan() || x <= xs[0] {
+            return (0, 0.0);
+        }
+        let last = xs.len() - 1;
+        if x >= xs[last] {
+            return (last - 1, 1.0);
+        }
+        let g = (((x - xs[0]) * self.inv_step) as usize).min(last - 1);
+        let i = if xs[g] <= x && x < xs[g + 1] {
+            g
+        } else {
+            xs.partition_point(|&v| v <= x) - 1
+        };
+        (i, (x - xs[i]) / (xs[i + 1] - xs[i]))
+    }
+}
+
+impl Lattice {
+    pub(crate) fn of(m: &Material) -> Lattice {
+        let recs = &m.records;
+        if m.isotropic {
+            return Lattice::Theta(Axis::new(recs.iter().map(|r| r.theta_i as f64).collect()));
+        }
+        let mut thetas: Vec<f64> = recs.iter().map(|r| r.theta_i as f64).collect();
+        thetas.dedup(); // records are sorted by (θ, φ)
+        let mut phis: Vec<f64> = recs.iter().map(|r| r.phi_i as f64).collect();
+        phis.sort_by(f64::total_cmp);
+        phis.dedup();
+        if thetas.len() * phis.len() != recs.len() {
+            return Lattice::Nearest;
+        }
+        let mut index = Vec::with_capacity(recs.len());
+        for (i, t) in thetas.iter().enumerate() {
+            for (j, p) in phis.iter().enumerate() {
+                let r = &recs[i * phis.len() + j];
+                if r.theta_i as f64 != *t || r.phi_i as f64 != *p {
+                    return Lattice::Nearest;
+                }
+                index.push(i * phis.len() + j);
+            }
+        }
+        Lattice::Grid {
+            thetas: Axis::new(thetas),
+            phis: Axis::new(phis),
+            index,
+        }
+    }
+
+    /// The records to blend for a query incidence (θ, φ in degrees) and the incidence they are
+    /// evaluated at: θ clamped to the stored range, or a scattered file's nearest record's own.
+    pub(crate) fn blend(&self, m: &Material, theta: f64, phi: f64) -> (Blend, f64, f64) {
+        match self {
+            Lattice::Theta(thetas) => {
+                let (i, t) = thetas.bracket(theta);
+                let mut b = Blend::one(i);
+                if thetas.xs.len() > 1 {
+                    b.w[0] = 1.0 - t;
+                    b.push(i + 1, t);
+                    if b.w[0] <= 0.0 {
+                        b = Blend::one(i + 1);
+                    }
+                }
+                (b, theta.clamp(thetas.first(), thetas.last()), phi)
+            }
+            Lattice::Grid {
+                thetas,
+                phis,
+                index,
+            } => {
+                let (i, t) = thetas.bracket(theta);
+                let i1 = (i + 1).min(thetas.xs.len() - 1);
+                // φ cells wrap: between the last φ and the first + 360°.
+                let np = phis.xs.len();
+                let p = crate::model::angles::wrap_phi(phi);
+                let (j0, j1, u) = if np == 1 {
+                    (0, 0, 0.0)
+                } else if p < phis.first() || p >= phis.last() {
+                    let span = phis.first() + 360.0 - phis.last();
+                    let d = (p - phis.last()).rem_euclid(360.0);
+                    (np - 1, 0, d / span)
+                } else {
+                    let (j, u) = phis.bracket(p);
+                    (j, j + 1, u)
+                };
+                let mut b = Blend {
+                    n: 0,
+                    rec: [0; 4],
+                    w: [0.0; 4],
+                };
+                b.push(index[i * np + j0], (1.0 - t) * (1.0 - u));
+                b.push(index[i * np + j1], (1.0 - t) * u);
+                b.push(index[i1 * np + j0], t * (1.0 - u));
+                b.push(index[i1 * np + j1], t * u);
+                if b.n == 0 {
+                    b = Blend::one(index[i * np + j0]);
+                }
+                // One stored azimuth is clamped to like θ: its records are used whole, at
+                // their own φ, as every other query outside the stored range is.
+                let phi = if np == 1 { phis.first() } else { phi };
+                (b, theta.clamp(thetas.first(), thetas.last()), phi)
+            }
+            Lattice::Nearest => {
+                let q = dir_from_deg(theta, phi);
+                let mut best = (f64::NEG_INFINITY, 0);
+                for (i, r) in m.records.iter().enumerate() {
+                    let c = dot(q, dir_from_deg(r.theta_i as f64, r.phi_i as f64));
+                    if c > best.0 {
+                        best = (c, i);
+                    }
+                }
+                let r = &m.records[best.1];
+                (Blend::one(best.1), r.theta_i as f64, r.phi_i as f64)
+            }
+        }
+    }
+}

@@ -1,0 +1,14 @@
+//! What a renderer compiles: the decoder (open a file once, answer ρ(ωi, ωo, λ) without
+//! allocating), blending between stored incidences, importance sampling, spectrum to colour and
+//! the C ABI. Uses [`crate::model`] and [`crate::format`] only.
+
+pub mod capi;
+mod cie;
+pub mod color;
+pub mod decoder;
+mod evaluator;
+mod lattice;
+pub mod sampling;
+
+pub use decoder::Decoder;
+pub use sampling::Sample;

@@ -1,0 +1,424 @@
+//! From samples to a [`Material`]: options, the parallel per-incidence fit, f16 rounding,
+//! sample positions and metadata.
+
+use crate::encode::basis::{
+    derive_basis, rank_meeting, rounded_table, series_limit, singular_vectors, spectral_space,
+    AUTO_RANK_MAX,
+};
+use crate::encode::fit::{rel, stored_error, CriticalAngle, FitContext, PeakMode};
+use crate::encode::fit::{JointOptions, LobeFamily};
+use crate::encode::samples::{IncidentSamples, SampleSet};
+use crate::error::{Error, Result};
+use crate::format::quantize_record_f16;
+use crate::model::material::{DirectionSet, Material, SamplePositions, MAX_TERMS};
+use crate::model::sh::MAX_SH_LEVEL;
+use crate::model::spectral::{BasisTable, SpectralBasis};
+use crate::model::Precision;
+use rayon::prelude::*;
+
+/// Encoder settings; the CLI's flags map one to one onto these fields.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EncodeOptions {
+    pub basis: SpectralBasis,
+    /// Number of spectral terms K (the paper: 13 = a0, a1..a6, b1..b6). `None`: 13 for the
+    /// analytic bases; for the data-derived basis the smallest rank whose out-of-basis error is
+    /// at most half the error budget (0.5% without one) at every incidence, at most 8.
+    pub terms: Option<usize>,
+    /// SH level L (with an error budget, the largest level tried); `None` picks the paper's
+    /// choice for its modes (1 with a peak, its Fig. 6; 4 without, its Fig. 4) and 6 for the
+    /// joint fit.
+    pub sh_level: Option<usize>,
+    pub peak: PeakMode,
+    pub critical_angle: CriticalAngle,
+    pub precision: Precision,
+    /// Lobe families the joint fit may use (`--lobes`).
+    pub lobes: Vec<LobeFamily>,
+    /// Per-incidence relative error budget (`--max-error`): the joint fit picks the smallest
+    /// model meeting it. The default is 0.5%.
+    pub max_error: Option<f64>,
+    /// Store the outgoing directions seen (`samp` chunk) so `decode` can write them back.
+    pub sample_positions: bool,
+    /// `--metadata KEY=VALUE` pairs, in the order given.
+    pub provenance: Vec<(String, String)>,
+    /// Names of the input files, recorded in the metadata.
+    pub inputs: Vec<String>,
+}
+
+/// The default error budget per incidence (relative L2).
+pub const DEFAULT_MAX_ERROR: f64 = 0.005;
+
+impl EncodeOptions {
+    /// The paper's method as the paper ran it: 13 periodic Fourier terms, SH level 1, Gaussian
+    /// peak outside an automatically chosen critical angle, f32.
+    pub fn paper() -> Self {
+        EncodeOptions {
+            basis: SpectralBasis::PeriodicFourier,
+            terms: Some(13),
+            peak: PeakMode::Paper,
+            precision: Precision::F32,
+            max_error: None,
+            ..Self::default()
+        }
+    }
+}
+
+impl Default for EncodeOptions {
+    fn default() -> Self {
+        EncodeOptions {
+            basis: SpectralBasis::Tabulated,
+            terms: None,
+            sh_level: None,
+            peak: PeakMode::Joint,
+            critical_angle: CriticalAngle::Auto,
+            precision: Precision::F16,
+            lobes: vec![
+                LobeFamily::CosinePower,
+                LobeFamily::Gaussian,
+                LobeFamily::Microfacet,
+                LobeFamily::MicrofacetSin2,
+            ],
+            max_error: Some(DEFAULT_MAX_ERROR),
+            sample_positions: true,
+            provenance: Vec::new(),
+            inputs: Vec::new(),
+        }
+    }
+}
+
+impl EncodeOptions {
+    pub fn effective_sh_level(&self) -> usize {
+        self.sh_level.unwrap_or(match self.peak {
+            PeakMode::Paper => 1,
+            PeakMode::None => 4,
+            PeakMode::Joint => 6,
+        })
+    }
+
+    /// The number of terms to fit, resolving `None`.
+    pub fn effective_terms(&self, set: &SampleSet) -> usize {
+        self.terms_and_table(set).0
+    }
+
+    /// The number of terms, and for the data-derived basis its table, from one SVD.
+    fn terms_and_table(&self, set: &SampleSet) -> (usize, Option<BasisTable>) {
+        let w = set.wavelengths.len();
+        match (self.terms, self.basis) {
+            (Some(k), SpectralBasis::Tabulated) if k >= 1 && k <= w => {
+                (k, Some(derive_basis(set, k, self.precision)))
+            }
+            (Some(k), _) => (k, None),
+            (None, SpectralBasis::Tabulated) => {
+                // The leading rows of a rank-8 derivation are the lower-rank bases themselves;
+                // the rank is chosen on the exact (orthonormal) vectors, then they are rounded.
+                let limit = 0.5 * self.max_error.unwrap_or(DEFAULT_MAX_ERROR);
+                let mut vectors = singular_vectors(set, AUTO_RANK_MAX.min(w));
+                let r = rank_meeting(set, &vectors, limit);
+                vectors.truncate(r * w);
+                (r, Some(rounded_table(set, vectors, self.precision)))
+            }
+            (None, basis) => (13.min(series_limit(basis, w)), None),
+        }
+    }
+
+    fn check(&self, set: &SampleSet, terms: usize) -> Result<()> {
+        let w = set.wavelengths.len();
+        if terms == 0 || terms > MAX_TERMS {
+            return Err(Error::Parameter(format!(
+                "--terms {terms} is outside 1..={MAX_TERMS}"
+            )));
+        }
+        if terms > w {
+            return Err(Error::Parameter(format!(
+                "--terms {terms} exceeds the {w} wavelength samples of the input: a spectral \
+                 series cannot have more terms than samples (use --terms {w} or fewer)"
+            )));
+        }
+        let limit = series_limit(self.basis, w);
+        if terms > limit {
+            return Err(Error::Parameter(format!(
+                "--terms {terms} is too many for the periodic Fourier basis on {w} wavelength \
+                 samples: it takes λmin and λmax as one point, leaving {limit} independent \
+                 values (use --terms {limit} or fewer, or --basis cosine)"
+            )));
+        }
+        let l = self.effective_sh_level();
+        if l > MAX_SH_LEVEL {
+            return Err(Error::Parameter(format!(
+                "--sh-level {l} is above the maximum {MAX_SH_LEVEL}"
+            )));
+        }
+        if let Some(e) = self.max_error {
+            if !(e.is_finite() && e > 0.0) {
+                return Err(Error::Parameter(format!(
+                    "--max-error {e} must be a positive fraction (0.01 = 1%)"
+                )));
+            }
+            if self.peak != PeakMode::Joint {
+                return Err(Error::Parameter(
+                    "--max-error needs --peak joint (the paper's method has no size to choose)"
+                        .into(),
+                ));
+            }
+        }
+        if let CriticalAngle::Fixed(g) = self.critical_angle {
+            if !(g.is_finite() && (0.0..=180.0).contains(&g)) {
+                return Err(Error::Parameter(format!(
+                    "--critical-angle {g} is outside 0..=180 degrees"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The result of an encode: the material and the figures an encoder reports.
+#[derive(Debug, Clone)]
+pub struct Encoded {
+    pub material: Material,
+    /// Relative L2 error over every sample of the input, as stored.
+    pub rel_error: f64,
+    /// Size of the input as a raw float32 table.
+    pub raw_bytes: usize,
+    /// Indices of the records whose error budget (`max_error`) could not be met; they hold
+    /// the most accurate model tried.
+    pub unmet: Vec<usize>,
+    /// What the encoder decided on its own that the user should hear about (a lowered SH level
+    /// where the samples could not support the one asked for).
+    pub notes: Vec<String>,
+}
+
+/// Fits every incident direction (in parallel; the result does not depend on the thread count,
+/// since each incidence is fitted alone and results are collected in order).
+pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
+    set.validate()
+        .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
+    let (terms, table) = opts.terms_and_table(set);
+    opts.check(set, terms)?;
+    let mut spectral = spectral_space(opts.basis, terms, &set.wavelengths);
+    spectral.table = table;
+    spectral.validate().map_err(Error::Parameter)?;
+    let mut ctx = FitContext::new(
+        spectral.clone(),
+        &set.wavelengths,
+        opts.effective_sh_level(),
+        opts.peak,
+        opts.critical_angle,
+    );
+    ctx.joint = JointOptions {
+        max_sh_level: opts.effective_sh_level(),
+        families: opts.lobes.clone(),
+        precision: opts.precision,
+        max_error: opts.max_error,
+    };
+    let fitted: Vec<_> = set
+        .incidences
+        .par_iter()
+        .map(|s| {
+            let mut note = None;
+            let fit = ctx.fit(s).or_else(|e| {
+                // The paper's split needs (L+1)² background samples; with fewer outgoing
+                // samples the level is lowered until the fit is determined, and reported.
+                if opts.peak != PeakMode::Paper {
+                    return Err(e);
+                }
+                for level in (0..opts.effective_sh_level()).rev() {
+                    let lower = FitContext::new(
+                        spectral.clone(),
+                        &set.wavelengths,
+                        level,
+                        opts.peak,
+                        opts.critical_angle,
+                    );
+                    if let Ok(f) = lower.fit(s) {
+                        note = Some(format!(
+                            "incidence ({}, {}): {} outgoing samples cannot determine SH level \
+                             {} beside the peak; stored at level {level}",
+                            s.theta_i,
+                            s.phi_i,
+                            s.directions.len(),
+                            opts.effective_sh_level()
+                        ));
+                        return Ok(f);
+                    }
+                }
+                Err(e)
+            });
+            let mut f = fit.map_err(|e| {
+                Error::Parameter(format!("incidence ({}, {}): {e}", s.theta_i, s.phi_i))
+            })?;
+            if opts.precision == Precision::F16 && opts.peak != PeakMode::Joint {
+                quantize_record_f16(&mut f.record);
+                let (e, r) = ctx.measure(&f.record, s);
+                f.sq_error = e;
+                f.record.rel_error = stored_error(rel(e, r));
+            }
+            Ok((f, note))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let (mut sq_e, mut sq_r) = (0.0, 0.0);
+    let mut records = Vec::with_capacity(fitted.len());
+    let mut unmet = Vec::new();
+    let mut notes = Vec::new();
+    for (f, note) in fitted {
+        notes.extend(note);
+        sq_e += f.sq_error;
+        sq_r += f.sq_reference;
+        if !f.met {
+            unmet.push(records.len());
+        }
+        records.push(f.record);
+    }
+    let rel_error = rel(sq_e, sq_r);
+    // Records may use fewer terms than were fitted (--max-error): the file keeps only as many
+    // basis functions as some record uses.
+    let used = records.iter().map(|r| r.terms).max().unwrap_or(1);
+    if used < spectral.terms {
+        spectral.terms = used;
+        if let Some(t) = &mut spectral.table {
+            t.values.truncate(used * t.nodes.len());
+        }
+    }
+    let metadata = metadata_json(opts, rel_error);
+    let material = Material {
+        version_minor: crate::format::VERSION_MINOR,
+        spectral,
+        sh_level: opts.effective_sh_level(),
+        isotropic: set.is_isotropic(),
+        wavelengths: set.wavelengths.iter().map(|&w| w as f32).collect(),
+        records,
+        metadata: Some(metadata),
+        // Positions beyond the format's per-set limit are not stored (decode then needs --like).
+        sample_positions: (opts.sample_positions
+            && set
+                .incidences
+                .iter()
+                .all(|s| s.directions.len() as u64 <= crate::model::material::MAX_SET_DIRECTIONS))
+        .then(|| sample_positions(&set.incidences)),
+    };
+    material
+        .validate()
+        .map_err(|e| Error::Parameter(format!("encoder produced an invalid material: {e}")))?;
+    Ok(Encoded {
+        material,
+        rel_error,
+        raw_bytes: set.raw_f32_bytes(),
+        unmet,
+        notes,
+    })
+}
+
+fn metadata_json(opts: &EncodeOptions, rel_error: f64) -> String {
+    use serde_json::{json, Map, Value};
+    // Only the options that shaped this file, so the metadata stays small next to the model.
+    let mut options = Map::new();
+    options.insert("basis".into(), json!(opts.basis.name()));
+    if let Some(t) = opts.terms {
+        options.insert("terms".into(), json!(t));
+    }
+    options.insert("sh_level".into(), json!(opts.effective_sh_level()));
+    let peak = match opts.peak {
+        PeakMode::Paper => "paper",
+        PeakMode::None => "none",
+        PeakMode::Joint => "joint",
+    };
+    options.insert("peak".into(), json!(peak));
+    match (opts.peak, opts.critical_angle) {
+        (PeakMode::Paper, CriticalAngle::Auto) => {
+            options.insert("critical_angle".into(), json!("auto"));
+        }
+        (PeakMode::Paper, CriticalAngle::Fixed(g)) => {
+            options.insert("critical_angle".into(), json!(g));
+        }
+        (PeakMode::Joint, _) => {
+            let lobes: Vec<&str> = opts.lobes.iter().map(|l| l.name()).collect();
+            options.insert("lobes".into(), json!(lobes));
+            if let Some(e) = opts.max_error {
+                options.insert("max_error".into(), json!(e));
+            }
+        }
+        _ => {}
+    }
+    options.insert("precision".into(), json!(opts.precision.name()));
+    let mut v = Map::new();
+    v.insert(
+        "encoder".into(),
+        json!(format!("sbrdf {}", env!("CARGO_PKG_VERSION"))),
+    );
+    v.insert("options".into(), Value::Object(options));
+    if !opts.inputs.is_empty() {
+        v.insert("inputs".into(), json!(opts.inputs));
+    }
+    if !opts.provenance.is_empty() {
+        let p: Map<String, Value> = opts
+            .provenance
+            .iter()
+            .map(|(k, val)| (k.clone(), json!(val)))
+            .collect();
+        v.insert("provenance".into(), Value::Object(p));
+    }
+    // Four significant digits are all an error figure needs.
+    let rounded: f64 = format!("{rel_error:.3e}").parse().unwrap_or(rel_error);
+    v.insert(
+        "rel_error".into(),
+        if rounded.is_finite() {
+            json!(rounded)
+        } else {
+            Value::Null
+        },
+    );
+    Value::Object(v).to_string()
+}
+
+/// Describes each incidence's outgoing directions, as a grid where they form one exactly
+/// (to 1e-5°), sharing identical sets between incidences.
+fn sample_positions(incidences: &[IncidentSamples]) -> SamplePositions {
+    let mut sets: Vec<DirectionSet> = Vec::new();
+    let mut set_of_incidence = Vec::with_capacity(incidences.len());
+    for s in incidences {
+        let set = as_grid(&s.directions).unwrap_or_else(|| {
+            DirectionSet::List(
+                s.directions
+                    .iter()
+                    .map(|d| [d[0] as f32, d[1] as f32])
+                    .collect(),
+            )
+        });
+        let index = match sets.iter().position(|x| *x == set) {
+            Some(i) => i,
+            None => {
+                sets.push(set);
+                sets.len() - 1
+            }
+        };
+        set_of_incidence.push(index as u32);
+    }
+    SamplePositions {
+        sets,
+        set_of_incidence,
+    }
+}
+
+fn as_grid(dirs: &[[f64; 2]]) -> Option<DirectionSet> {
+    let mut thetas: Vec<f64> = dirs.iter().map(|d| d[0]).collect();
+    thetas.dedup();
+    let nphi = dirs.len() / thetas.len();
+    if nphi * thetas.len() != dirs.len() {
+        return None;
+    }
+    let phis: Vec<f64> = dirs[..nphi].iter().map(|d| d[1]).collect();
+    let step = |v: &[f64]| if v.len() > 1 { v[1] - v[0] } else { 0.0 };
+    let grid = DirectionSet::Grid {
+        theta0: thetas[0] as f32,
+        dtheta: step(&thetas) as f32,
+        ntheta: thetas.len() as u32,
+        phi0: phis[0] as f32,
+        dphi: step(&phis) as f32,
+        nphi: nphi as u32,
+    };
+    let ok = grid
+        .directions()
+        .iter()
+        .zip(dirs)
+        .all(|(g, d)| (g[0] - d[0]).abs() <= 1e-5 && (g[1] - d[1]).abs() <= 1e-5);
+    ok.then_some(grid)
+}

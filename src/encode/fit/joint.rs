@@ -1,0 +1,477 @@
+//! Joint fitting, beyond the paper: the SH background and the lobe amplitudes are solved
+//! together by linear least squares for given lobe shape parameters, and the shape parameters
+//! are searched on top (variable projection). No critical angle is needed.
+//!
+//! Per incidence, with the spectral synthesis matrix S (W×K) factored S = Q·R (Q orthonormal),
+//! the samples ρ (N×W) split into Cq = ρ·Q (N×K) and a part no model in this basis can
+//! represent. For a design matrix M = [Y | G(θ)] (SH functions and lobe shapes at the N
+//! outgoing directions) the best coefficients are M⁺·Cq, and the error is
+//! ‖Cq − M·M⁺·Cq‖² + ‖ρ‖² − ‖Cq‖²: the relative-error objective of every record, measured on
+//! all samples with equal weight. Y is fixed per incidence, so it is projected out once and a
+//! shape candidate costs O(N·(L+1)²) instead of a new factorisation. Because R is triangular,
+//! the first r columns of Q span the first r basis functions: one fit gives the error of every
+//! spectral rank r ≤ K at once, which is what `--max-error` searches over.
+
+use super::context::{lstsq, rel, stored_error, FitContext, Fitted};
+use super::options::{JointOptions, LobeFamily};
+use super::peak::find_peak_direction;
+use crate::encode::samples::IncidentSamples;
+use crate::format::quantize_record_f16;
+use crate::model::angles::{angle_between, dir_from_deg, mirror_deg, wrap_phi};
+use crate::model::material::{IncidentRecord, Lobe, LobeKind};
+use crate::model::sh::sh_count;
+use crate::model::Precision;
+use nalgebra::DMatrix;
+
+/// Orthonormal basis of the column space of `m` (rank-revealing, via SVD).
+fn column_space(m: &DMatrix<f64>) -> DMatrix<f64> {
+    let svd = m.clone().svd(true, false);
+    let u = svd.u.expect("U requested");
+    let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
+    let keep: Vec<usize> = (0..svd.singular_values.len())
+        .filter(|&i| svd.singular_values[i] > smax * 1e-9)
+        .collect();
+    u.select_columns(keep.iter())
+}
+
+/// Everything about one incidence that does not depend on the model size.
+struct Incidence {
+    n: usize,
+    dirs: Vec<[f64; 3]>,
+    wi: [f64; 3],
+    peak: (f64, f64),
+    alpha2: Vec<f64>,
+    /// N×K samples in the orthonormalised spectral basis.
+    cq: DMatrix<f64>,
+    /// ‖ρ‖² and the part of it outside the spectral basis.
+    total: f64,
+    floor: f64,
+    /// Q and R of the synthesis matrix.
+    r_inv_t: DMatrix<f64>,
+    /// SH values for the largest level, N×P.
+    y: DMatrix<f64>,
+}
+
+/// One fitted model size: SH level, lobe (if any) and coefficients in the orthonormal basis,
+/// with the residual of each orthonormal spectral term.
+struct LevelFit {
+    level: usize,
+    lobe: Option<(LobeFamily, Vec<f64>)>,
+    /// (P + lobe columns) × K coefficients in Q space.
+    xq: DMatrix<f64>,
+    /// Squared residual per orthonormal term k.
+    resid: Vec<f64>,
+}
+
+fn prepare(ctx: &FitContext, s: &IncidentSamples) -> Result<Incidence, String> {
+    let n = s.directions.len();
+    let w = ctx.synthesis.ncols();
+    let k = ctx.spectral.terms;
+    let dirs: Vec<[f64; 3]> = s
+        .directions
+        .iter()
+        .map(|d| dir_from_deg(d[0], d[1]))
+        .collect();
+    let rho = DMatrix::from_row_slice(n, w, &s.values);
+    let qr = ctx.synthesis.transpose().qr();
+    let (q, r) = (qr.q(), qr.r());
+    if (0..k).any(|i| r[(i, i)].abs() <= 1e-12 * r[(0, 0)].abs().max(1e-300)) {
+        return Err(format!(
+            "the {k} spectral basis functions are not independent on the {w} wavelength samples"
+        ));
+    }
+    let cq = &rho * &q;
+    let total = rho.norm_squared();
+    let floor = (total - cq.norm_squared()).max(0.0);
+    let r_inv_t = lstsq(&r.transpose(), &DMatrix::identity(k, k));
+    let y = ctx.sh_matrix(&dirs);
+    let mirror = mirror_deg(s.theta_i, s.phi_i);
+    let peak = find_peak_direction(s, mirror);
+    let pv = dir_from_deg(peak.0, peak.1);
+    let alpha2 = dirs.iter().map(|d| angle_between(*d, pv).powi(2)).collect();
+    Ok(Incidence {
+        n,
+        dirs,
+        wi: dir_from_deg(s.theta_i, s.phi_i),
+        peak,
+        alpha2,
+        cq,
+        total,
+        floor,
+        r_inv_t,
+        y,
+    })
+}
+
+/// Shape parameters are searched unconstrained: Gaussian [ln b]; cosine power [ln n];
+/// microfacet [ln b, ln c, logit a].
+fn decode_params(family: LobeFamily, x: &[f64]) -> Vec<f64> {
+    match family {
+        LobeFamily::Gaussian => vec![x[0].clamp(-30.0, 30.0).exp()],
+        LobeFamily::CosinePower => vec![x[0].clamp(-5.0, 7.0 * std::f64::consts::LN_10).exp()],
+        // Safeguards: b ≤ 10⁷ (narrower than any sampling resolves), c ≥ 0.05.
+        LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 => vec![
+            x[0].clamp(-30.0, 7.0 * std::f64::consts::LN_10).exp(),
+            x[1].clamp(0.05f64.ln(), 30.0).exp(),
+            1.0 / (1.0 + (-x[2]).exp()),
+        ],
+    }
+}
+
+/// The columns a lobe adds to the design matrix (parameters as stored, rounded to f32 so the
+/// fit sees what the decoder will).
+fn lobe_columns(inc: &Incidence, family: LobeFamily, params: &[f64]) -> DMatrix<f64> {
+    match family {
+        LobeFamily::Gaussian => {
+            let b = params[0] as f32 as f64;
+            DMatrix::from_iterator(inc.n, 1, inc.alpha2.iter().map(|a| (-a / b).exp()))
+        }
+        LobeFamily::CosinePower => {
+            let n = params[0] as f32 as f64;
+            DMatrix::from_iterator(
+                inc.n,
+                1,
+                inc.alpha2.iter().map(|a| a.sqrt().cos().max(0.0).powf(n)),
+            )
+        }
+        LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 => {
+            let p32: Vec<f32> = params.iter().map(|&v| v as f32).collect();
+            let sin2 = family == LobeFamily::MicrofacetSin2;
+            let mut m = DMatrix::zeros(inc.n, 4);
+            for (i, d) in inc.dirs.iter().enumerate() {
+                let v = crate::model::lobes::microfacet_variants_with(&p32, inc.wi, *d, sin2);
+                for j in 0..4 {
+                    m[(i, j)] = v[j];
+                }
+            }
+            m
+        }
+    }
+}
+
+/// Starting points for the shape search.
+fn initial_grid(family: LobeFamily) -> Vec<Vec<f64>> {
+    match family {
+        LobeFamily::Gaussian => (0..=40)
+            .map(|i| vec![(1e-7f64).ln() + (4e7f64).ln() * i as f64 / 40.0])
+            .collect(),
+        LobeFamily::CosinePower => (0..=30)
+            .map(|i| vec![-2.0 + (2.0 + 7.0 * std::f64::consts::LN_10) * i as f64 / 30.0])
+            .collect(),
+        LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 => {
+            let mut g = Vec::new();
+            for a in [0.1f64, 0.5, 0.9] {
+                for i in 0..9 {
+                    for c in [0.4f64, 1.2, 3.0] {
+                        g.push(vec![15.0 * i as f64 / 8.0, c.ln(), (a / (1.0 - a)).ln()]);
+                    }
+                }
+            }
+            g
+        }
+    }
+}
+
+/// Error reduction a set of lobe columns brings once the SH part is projected out.
+fn gain(qy: &DMatrix<f64>, c_perp: &DMatrix<f64>, cols: &DMatrix<f64>) -> f64 {
+    let g = cols - qy * (qy.transpose() * cols);
+    if !g.iter().all(|v| v.is_finite()) || g.norm_squared() <= 1e-300 {
+        return 0.0;
+    }
+    let basis = column_space(&g);
+    (basis.transpose() * c_perp).norm_squared()
+}
+
+/// Nelder–Mead on `f` (to minimise) from `x0`, deterministic, `iters` iterations at most.
+fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64, iters: usize) -> (Vec<f64>, f64) {
+    let d = x0.len();
+    let mut simplex: Vec<(Vec<f64>, f64)> = Vec::with_capacity(d + 1);
+    simplex.push((x0.to_vec(), f(x0)));
+    for i in 0..d {
+        let mut x = x0.to_vec();
+        x[i] += step;
+        let v = f(&x);
+        simplex.push((x, v));
+    }
+    for _ in 0..iters {
+        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+        if (simplex[d].1 - simplex[0].1).abs() <= 1e-12 * simplex[0].1.abs().max(1e-300) {
+            break;
+        }
+        let centroid: Vec<f64> = (0..d)
+            .map(|j| simplex[..d].iter().map(|s| s.0[j]).sum::<f64>() / d as f64)
+            .collect();
+        let at = |t: f64| -> Vec<f64> {
+            (0..d)
+                .map(|j| centroid[j] + t * (simplex[d].0[j] - centroid[j]))
+                .collect()
+        };
+        let xr = at(-1.0);
+        let fr = f(&xr);
+        if fr < simplex[0].1 {
+            let xe = at(-2.0);
+            let fe = f(&xe);
+            simplex[d] = if fe < fr { (xe, fe) } else { (xr, fr) };
+        } else if fr < simplex[d - 1].1 {
+            simplex[d] = (xr, fr);
+        } else {
+            let xc = if fr < simplex[d].1 { at(-0.5) } else { at(0.5) };
+            let fc = f(&xc);
+            if fc < simplex[d].1.min(fr) {
+                simplex[d] = (xc, fc);
+            } else {
+                let best = simplex[0].0.clone();
+                for s in simplex.iter_mut().skip(1) {
+                    s.0 = (0..d).map(|j| best[j] + 0.5 * (s.0[j] - best[j])).collect();
+                    s.1 = f(&s.0);
+                }
+            }
+        }
+    }
+    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
+    simplex.swap_remove(0)
+}
+
+/// Searches the shape parameters of `family` with the SH background of `level` projected out.
+fn search_shape(inc: &Incidence, level: usize, fam: LobeFamily) -> Vec<f64> {
+    let p = sh_count(level);
+    let y = inc.y.columns(0, p).into_owned();
+    let qy = column_space(&y);
+    let c_perp = &inc.cq - &qy * (qy.transpose() * &inc.cq);
+    {
+        let objective = |x: &[f64]| {
+            -gain(
+                &qy,
+                &c_perp,
+                &lobe_columns(inc, fam, &decode_params(fam, x)),
+            )
+        };
+        let mut starts: Vec<(Vec<f64>, f64)> = initial_grid(fam)
+            .into_iter()
+            .map(|x| {
+                let v = objective(&x);
+                (x, v)
+            })
+            .collect();
+        starts.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let mut best = starts[0].clone();
+        for s in starts.iter().take(2) {
+            let r = nelder_mead(&objective, &s.0, 0.5, 150 * s.0.len());
+            if r.1 < best.1 {
+                best = r;
+            }
+        }
+        decode_params(fam, &best.0)
+    }
+}
+
+/// Solves SH level `level` plus the lobe of the given shape (if any) by least squares.
+fn fit_level(inc: &Incidence, level: usize, lobe: Option<(LobeFamily, Vec<f64>)>) -> LevelFit {
+    let p = sh_count(level);
+    let y = inc.y.columns(0, p).into_owned();
+    let m = match &lobe {
+        Some((fam, params)) => {
+            let cols = lobe_columns(inc, *fam, params);
+            let mut m = DMatrix::zeros(inc.n, p + cols.ncols());
+            m.columns_mut(0, p).copy_from(&y);
+            m.columns_mut(p, cols.ncols()).copy_from(&cols);
+            m
+        }
+        None => y,
+    };
+    let xq = lstsq(&m, &inc.cq);
+    let res = &inc.cq - &m * &xq;
+    let resid = (0..res.ncols())
+        .map(|k| res.column(k).norm_squared())
+        .collect();
+    LevelFit {
+        level,
+        lobe,
+        xq,
+        resid,
+    }
+}
+
+impl LevelFit {
+    /// Predicted squared error with the first `r` spectral terms.
+    fn sq_error(&self, inc: &Incidence, r: usize) -> f64 {
+        let kept: f64 = self.resid[..r].iter().sum();
+        let dropped: f64 = (r..inc.cq.ncols())
+            .map(|k| inc.cq.column(k).norm_squared())
+            .sum();
+        kept + dropped + inc.floor
+    }
+
+    /// The record with the first `r` terms, in f32.
+    fn record(&self, inc: &Incidence, s: &IncidentSamples, r: usize) -> IncidentRecord {
+        let p = sh_count(self.level);
+        // Coefficients on the first r basis functions: ρ̂ = M·Xq·Qᵀ = M·X·Sᵀ = M·X·Rᵀ·Qᵀ, so
+        // X = Xq·R⁻ᵀ, restricted to the leading r×r block (R⁻ᵀ is lower triangular, so its
+        // leading block is the inverse transpose of R's leading block).
+        let xq = self.xq.columns(0, r);
+        let rit = inc.r_inv_t.view((0, 0), (r, r));
+        let x = xq * rit;
+        let mut sh = Vec::with_capacity(r * p);
+        for kk in 0..r {
+            for j in 0..p {
+                sh.push(x[(j, kk)] as f32);
+            }
+        }
+        let lobes = match &self.lobe {
+            None => Vec::new(),
+            Some((LobeFamily::Gaussian, params)) => vec![Lobe {
+                kind: LobeKind::AngleGaussian,
+                amplitude: (0..r).map(|kk| x[(p, kk)] as f32).collect(),
+                params: vec![params[0] as f32; r],
+            }],
+            Some((LobeFamily::CosinePower, params)) => vec![Lobe {
+                kind: LobeKind::CosinePower,
+                amplitude: (0..r).map(|kk| x[(p, kk)] as f32).collect(),
+                params: vec![params[0] as f32],
+            }],
+            Some((fam @ (LobeFamily::Microfacet | LobeFamily::MicrofacetSin2), params)) => {
+                vec![Lobe {
+                    kind: if *fam == LobeFamily::Microfacet {
+                        LobeKind::Microfacet
+                    } else {
+                        LobeKind::MicrofacetSin2
+                    },
+                    amplitude: (0..4)
+                        .flat_map(|j| (0..r).map(move |kk| (j, kk)))
+                        .map(|(j, kk)| x[(p + j, kk)] as f32)
+                        .collect(),
+                    params: params.iter().map(|&v| v as f32).collect(),
+                }]
+            }
+        };
+        let (tp, pp) = inc.peak;
+        let pp = if tp < 1e-9 { 0.0 } else { pp };
+        IncidentRecord {
+            terms: r,
+            sh_level: self.level,
+            precision: Precision::F32,
+            theta_i: s.theta_i as f32,
+            phi_i: s.phi_i as f32,
+            theta_p: (tp + 0.0) as f32,
+            phi_p: wrap_phi(pp as f32 as f64) as f32 % 360.0,
+            rel_error: 0.0,
+            critical_angle: 0.0,
+            sh,
+            lobes,
+        }
+    }
+}
+
+/// Bytes a record of this size takes in the file (chunk framing included).
+fn record_bytes(
+    terms: usize,
+    level: usize,
+    lobe: Option<LobeFamily>,
+    precision: Precision,
+) -> usize {
+    let s = precision.bytes();
+    let lobe = match lobe {
+        None => 0,
+        Some(LobeFamily::Gaussian) => 4 + terms * s + 4 * terms,
+        Some(LobeFamily::CosinePower) => 4 + terms * s + 4,
+        Some(LobeFamily::Microfacet | LobeFamily::MicrofacetSin2) => 4 + 4 * terms * s + 12,
+    };
+    12 + 40 + terms * sh_count(level) * s + lobe
+}
+
+/// Fits one incidence: the full model, or with a budget the smallest model (by bytes) that
+/// meets it. Returns the fit and whether the budget was met.
+pub fn fit_joint(
+    ctx: &FitContext,
+    s: &IncidentSamples,
+    opts: &JointOptions,
+) -> Result<(Fitted, bool), String> {
+    let inc = prepare(ctx, s)?;
+    let k = ctx.spectral.terms;
+    let levels: Vec<usize> = match opts.max_error {
+        Some(_) => (0..=opts.max_sh_level).collect(),
+        None => vec![opts.max_sh_level],
+    };
+    // Shapes are searched at two levels only, the lowest and the highest tried, and each level
+    // reuses the shape found at the nearer one: the best shape moves little with the SH level,
+    // and the search is most of the cost.
+    let (lo, hi) = (levels[0], levels[levels.len() - 1]);
+    let shapes: Vec<(LobeFamily, Vec<f64>, Vec<f64>)> = opts
+        .families
+        .iter()
+        .map(|&fam| {
+            let at_hi = search_shape(&inc, hi, fam);
+            let at_lo = if lo == hi {
+                at_hi.clone()
+            } else {
+                search_shape(&inc, lo.max(1).min(hi), fam)
+            };
+            (fam, at_lo, at_hi)
+        })
+        .collect();
+    let mut fits = Vec::new();
+    for &level in &levels {
+        fits.push(fit_level(&inc, level, None));
+        for (fam, at_lo, at_hi) in &shapes {
+            let shape = if level * 2 < lo + hi { at_lo } else { at_hi };
+            fits.push(fit_level(&inc, level, Some((*fam, shape.clone()))));
+        }
+    }
+    let finish = |mut record: IncidentRecord, precision: Precision| {
+        if precision == Precision::F16 {
+            quantize_record_f16(&mut record);
+        }
+        let (sq_error, sq_reference) = ctx.measure(&record, s);
+        record.rel_error = stored_error(rel(sq_error, sq_reference));
+        Fitted {
+            met: true,
+            record,
+            sq_error,
+            sq_reference,
+        }
+    };
+    match opts.max_error {
+        None => {
+            // The best of the full-size fits (all terms, the given level and precision).
+            let best = fits
+                .iter()
+                .min_by(|a, b| a.sq_error(&inc, k).total_cmp(&b.sq_error(&inc, k)))
+                .expect("at least one fit");
+            Ok((finish(best.record(&inc, s, k), opts.precision), true))
+        }
+        Some(budget) => {
+            let precisions: &[Precision] = match opts.precision {
+                Precision::F16 => &[Precision::F16, Precision::F32],
+                Precision::F32 => &[Precision::F32],
+            };
+            let mut candidates = Vec::new();
+            for (fi, f) in fits.iter().enumerate() {
+                for r in 1..=k {
+                    for &prec in precisions {
+                        let bytes = record_bytes(r, f.level, f.lobe.as_ref().map(|l| l.0), prec);
+                        candidates.push((bytes, fi, r, prec));
+                    }
+                }
+            }
+            candidates.sort_by_key(|c| (c.0, c.1, c.2, c.3.code()));
+            let limit = budget * budget * inc.total;
+            for (_, fi, r, prec) in candidates {
+                // The prediction is exact before rounding to f32/f16: skip what cannot meet the
+                // budget, measure the rest as stored.
+                if fits[fi].sq_error(&inc, r) > limit * 1.0001 {
+                    continue;
+                }
+                let fitted = finish(fits[fi].record(&inc, s, r), prec);
+                if fitted.sq_error <= limit {
+                    return Ok((fitted, true));
+                }
+            }
+            // Nothing met the budget: the most accurate model tried, in f32.
+            let most = fits
+                .iter()
+                .min_by(|a, b| a.sq_error(&inc, k).total_cmp(&b.sq_error(&inc, k)))
+                .expect("at least one fit");
+            Ok((finish(most.record(&inc, s, k), Precision::F32), false))
+        }
+    }
+}

@@ -1,0 +1,62 @@
+//! What a fit is asked to do: the peak mode, the critical angle of the paper's split, the lobe
+//! families and the budget of the joint fit.
+
+use crate::model::Precision;
+
+/// How the specular peak is represented.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PeakMode {
+    /// SH only, no peak: the paper's baseline (its Fig. 4).
+    None,
+    /// The paper's hybrid: SH background fitted outside a critical angle, then a Gaussian.
+    Paper,
+    /// Background and lobe amplitudes solved together, the lobe width searched on top
+    /// (see [`super::joint`]).
+    Joint,
+}
+
+/// The angle (degrees) around the peak direction inside which samples are left to the peak.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CriticalAngle {
+    /// Chosen per incident direction by minimising the relative error (the paper's Fig. 6).
+    Auto,
+    Fixed(f64),
+}
+
+/// Which lobe shapes the encoder may use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LobeFamily {
+    /// One Gaussian in the angle from the peak direction, one width for all terms (kind 1).
+    Gaussian,
+    /// The half-vector microfacet lobe in 1 − cos θh (kind 2; holds ABC-model lobes exactly).
+    Microfacet,
+    /// The half-vector microfacet lobe in sin²θh (kind 3; holds GGX exactly).
+    MicrofacetSin2,
+    /// Phong's cosine-power lobe about the peak direction (kind 4).
+    CosinePower,
+}
+
+impl LobeFamily {
+    pub fn name(self) -> &'static str {
+        match self {
+            LobeFamily::Gaussian => "gaussian",
+            LobeFamily::Microfacet => "microfacet",
+            LobeFamily::MicrofacetSin2 => "microfacet-sin2",
+            LobeFamily::CosinePower => "cosine-power",
+        }
+    }
+}
+
+/// What to fit: the largest model, and optionally an error budget to spend as little as possible
+/// on.
+#[derive(Debug, Clone)]
+pub struct JointOptions {
+    /// Largest SH level tried.
+    pub max_sh_level: usize,
+    /// Lobe families tried; the encoder keeps the one with the smaller error.
+    pub families: Vec<LobeFamily>,
+    /// Storage precision; with a budget, f16 is tried first and f32 only if f16 misses it.
+    pub precision: Precision,
+    /// Relative error budget per incidence, if any.
+    pub max_error: Option<f64>,
+}

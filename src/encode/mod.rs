@@ -1,0 +1,15 @@
+//! The encoder (feature `encode`): from sampled spectral BRDFs to a [`crate::Material`] — the
+//! sample sets, the data-derived spectral basis, the per-incidence fitters (the paper's split
+//! and the joint fit), error budgets, the command-line option set, and the tools that derive or
+//! describe files (subset, info). May use the decoder; nothing below uses it.
+
+pub mod basis;
+pub mod encoder;
+pub mod fit;
+pub mod info;
+pub mod samples;
+pub mod settings;
+pub mod subset;
+
+pub use encoder::{encode, EncodeOptions, Encoded};
+pub use samples::{IncidentSamples, SampleSet};

@@ -1,0 +1,339 @@
+//! `sbrdf encode`'s options by their command-line names, and the encode around them (input
+//! selection, defaults, the error budget's verdict): one place that the command line and the
+//! Python binding both call, so that both validate, default and report alike.
+
+use crate::encode::encoder::{encode, EncodeOptions, Encoded, DEFAULT_MAX_ERROR};
+use crate::encode::fit::LobeFamily;
+use crate::encode::fit::{CriticalAngle, PeakMode};
+use crate::encode::samples::ReadReport;
+use crate::encode::samples::SampleSet;
+use crate::error::{Error, Result};
+use crate::model::spectral::SpectralBasis;
+use crate::model::Precision;
+
+/// `sbrdf encode`'s options: the encoder's own ([`EncodeOptions`], whose `provenance` holds the
+/// `--metadata` pairs and `sample_positions` the inverse of `--no-sample-positions`), plus what
+/// the command line decides around the fit.
+#[derive(Debug, Clone, Default)]
+pub struct EncodeSettings {
+    /// The encoder's options. Its `max_error` is resolved by [`EncodeSettings::options`]: the
+    /// budget given with `--max-error`, else the default budget with the joint fit and none
+    /// for the paper's method or SH alone.
+    pub encoder: EncodeOptions,
+    /// `--max-error` as given: an explicit budget fails the encode where it cannot be met.
+    pub max_error: Option<f64>,
+    pub best_effort: bool,
+    /// `--wavelengths MIN:MAX`.
+    pub wavelengths: Option<(f64, f64)>,
+    pub incident_max: Option<f64>,
+}
+
+/// The option names `EncodeSettings::set` knows, as the command line spells them.
+pub const NAMES: [&str; 13] = [
+    "basis",
+    "terms",
+    "sh-level",
+    "peak",
+    "critical-angle",
+    "precision",
+    "lobes",
+    "max-error",
+    "best-effort",
+    "metadata",
+    "no-sample-positions",
+    "wavelengths",
+    "incident-max",
+];
+
+fn bad(name: &str, value: &str, expected: &str) -> Error {
+    Error::Parameter(format!("--{name} '{value}': expected {expected}"))
+}
+
+/// `0.01` or `1%`.
+pub fn parse_fraction(name: &str, s: &str) -> Result<f64> {
+    let t = s.trim();
+    let v = match t.strip_suffix('%') {
+        Some(p) => p.trim().parse::<f64>().ok().map(|v| v / 100.0),
+        None => t.parse::<f64>().ok(),
+    };
+    match v {
+        Some(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(bad(name, s, "a fraction like 0.01 or 1%")),
+    }
+}
+
+/// `MIN:MAX` in nm.
+pub fn parse_window(name: &str, s: &str) -> Result<(f64, f64)> {
+    let err = || bad(name, s, "MIN:MAX in nm, like 450:650");
+    let (lo, hi) = s.split_once(':').ok_or_else(err)?;
+    let lo: f64 = lo.trim().parse().map_err(|_| err())?;
+    let hi: f64 = hi.trim().parse().map_err(|_| err())?;
+    if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+        return Err(err());
+    }
+    Ok((lo, hi))
+}
+
+/// `auto` or degrees.
+pub fn parse_critical_angle(s: &str) -> Result<CriticalAngle> {
+    match s.trim() {
+        "auto" => Ok(CriticalAngle::Auto),
+        t => t
+            .parse::<f64>()
+            .map(|g| CriticalAngle::Fixed(g + 0.0))
+            .map_err(|_| bad("critical-angle", s, "degrees (like 37) or 'auto'")),
+    }
+}
+
+pub fn parse_basis(s: &str) -> Result<SpectralBasis> {
+    match s.trim() {
+        "data" => Ok(SpectralBasis::Tabulated),
+        "cosine" => Ok(SpectralBasis::Cosine),
+        "fourier" => Ok(SpectralBasis::PeriodicFourier),
+        _ => Err(bad("basis", s, "data, cosine or fourier")),
+    }
+}
+
+pub fn parse_peak(s: &str) -> Result<PeakMode> {
+    match s.trim() {
+        "joint" => Ok(PeakMode::Joint),
+        "paper" => Ok(PeakMode::Paper),
+        "none" => Ok(PeakMode::None),
+        _ => Err(bad("peak", s, "joint, paper or none")),
+    }
+}
+
+pub fn parse_precision(s: &str) -> Result<Precision> {
+    match s.trim() {
+        "f16" => Ok(Precision::F16),
+        "f32" => Ok(Precision::F32),
+        _ => Err(bad("precision", s, "f16 or f32")),
+    }
+}
+
+pub fn parse_lobe(s: &str) -> Result<LobeFamily> {
+    match s.trim() {
+        "cosine-power" => Ok(LobeFamily::CosinePower),
+        "gaussian" => Ok(LobeFamily::Gaussian),
+        "microfacet" => Ok(LobeFamily::Microfacet),
+        "microfacet-sin2" => Ok(LobeFamily::MicrofacetSin2),
+        _ => Err(bad(
+            "lobes",
+            s,
+            "cosine-power, gaussian, microfacet or microfacet-sin2",
+        )),
+    }
+}
+
+/// `KEY=VALUE`.
+pub fn parse_metadata(s: &str) -> Result<(String, String)> {
+    let (k, v) = s
+        .split_once('=')
+        .ok_or_else(|| bad("metadata", s, "KEY=VALUE"))?;
+    Ok((k.trim().to_string(), v.to_string()))
+}
+
+fn parse_bool(name: &str, s: &str) -> Result<bool> {
+    match s.trim() {
+        "true" | "True" | "1" => Ok(true),
+        "false" | "False" | "0" => Ok(false),
+        _ => Err(bad(name, s, "true or false")),
+    }
+}
+
+fn parse_count(name: &str, s: &str) -> Result<usize> {
+    s.trim().parse().map_err(|_| bad(name, s, "a whole number"))
+}
+
+impl EncodeSettings {
+    /// Sets one option from text, by its command-line name (`sh-level` or `sh_level`). Lists
+    /// (`lobes`, `metadata`) take comma-separated or repeated values.
+    pub fn set(&mut self, name: &str, value: &str) -> Result<()> {
+        let key = name.trim().trim_start_matches("--").replace('_', "-");
+        let e = &mut self.encoder;
+        match key.as_str() {
+            "basis" => e.basis = parse_basis(value)?,
+            "terms" => e.terms = Some(parse_count(&key, value)?),
+            "sh-level" => e.sh_level = Some(parse_count(&key, value)?),
+            "peak" => e.peak = parse_peak(value)?,
+            "critical-angle" => e.critical_angle = parse_critical_angle(value)?,
+            "precision" => e.precision = parse_precision(value)?,
+            "lobes" => {
+                e.lobes = value
+                    .split(',')
+                    .map(parse_lobe)
+                    .collect::<Result<Vec<_>>>()?
+            }
+            "max-error" => self.max_error = Some(parse_fraction(&key, value)?),
+            "best-effort" => self.best_effort = parse_bool(&key, value)?,
+            "metadata" => e.provenance.push(parse_metadata(value)?),
+            "no-sample-positions" => e.sample_positions = !parse_bool(&key, value)?,
+            "wavelengths" => self.wavelengths = Some(parse_window(&key, value)?),
+            "incident-max" => {
+                self.incident_max = Some(
+                    value
+                        .trim()
+                        .parse()
+                        .map_err(|_| bad(&key, value, "degrees"))?,
+                )
+            }
+            _ => {
+                return Err(Error::Parameter(format!(
+                    "unknown encode option '{name}'; known: {}",
+                    NAMES.join(", ")
+                )))
+            }
+        }
+        Ok(())
+    }
+
+    /// The encoder options, with the command line's defaults (the default budget with the
+    /// joint fit; none for the paper's method or SH alone) and the inputs and selections
+    /// recorded.
+    pub fn options(&self, inputs: &[String]) -> EncodeOptions {
+        let mut o = self.encoder.clone();
+        if let Some((lo, hi)) = self.wavelengths {
+            o.provenance
+                .push(("selected_wavelengths_nm".into(), format!("{lo}:{hi}")));
+        }
+        if let Some(m) = self.incident_max {
+            o.provenance
+                .push(("selected_incident_max_deg".into(), m.to_string()));
+        }
+        o.max_error = match (self.max_error, o.peak) {
+            (Some(e), _) => Some(e),
+            (None, PeakMode::Joint) => Some(DEFAULT_MAX_ERROR),
+            (None, _) => None,
+        };
+        o.inputs = inputs.to_vec();
+        o
+    }
+}
+
+/// An encode's result: the file's bytes, the material, and what the user should be told.
+pub struct Outcome {
+    pub bytes: Vec<u8>,
+    pub encoded: Encoded,
+    /// The samples actually encoded (after `wavelengths`/`incident_max`).
+    pub samples: SampleSet,
+    /// Notes and warnings, one line each, without a prefix.
+    pub messages: Vec<String>,
+}
+
+/// Restricts, encodes and serialises `set` read from `inputs`: what `sbrdf encode` does before
+/// writing. Fails, writing nothing, when an explicit `max_error` is unmet without `best_effort`.
+pub fn encode_samples(
+    set: SampleSet,
+    report: &ReadReport,
+    inputs: &[String],
+    s: &EncodeSettings,
+) -> Result<Outcome> {
+    let set = if s.wavelengths.is_some() || s.incident_max.is_some() {
+        set.restricted(s.wavelengths, s.incident_max)
+            .map_err(|e| Error::Parameter(format!("{}: {e}", inputs.join(", "))))?
+    } else {
+        set
+    };
+    let mut messages = Vec::new();
+    if report.missing_pixels > 0 {
+        messages.push(format!(
+            "note: {} EXR pixels marked missing (NaN or mask 0) were skipped",
+            report.missing_pixels
+        ));
+    }
+    if report.negative_values > 0 {
+        messages.push(format!(
+            "warning: {} of {} samples are negative (kept as measured)",
+            report.negative_values,
+            set.sample_count()
+        ));
+    }
+    let opts = s.options(inputs);
+    let encoded = encode(&set, &opts)?;
+    messages.extend(encoded.notes.iter().map(|n| format!("note: {n}")));
+    if !encoded.unmet.is_empty() {
+        let m = &encoded.material;
+        let list: Vec<String> = encoded
+            .unmet
+            .iter()
+            .map(|&i| {
+                let r = &m.records[i];
+                format!("({}, {}): {:.4}", r.theta_i, r.phi_i, r.rel_error)
+            })
+            .collect();
+        let msg = format!(
+            "the error budget {} cannot be met at {} incident direction(s); best errors reached: {}",
+            opts.max_error.unwrap_or(DEFAULT_MAX_ERROR),
+            list.len(),
+            list.join(", ")
+        );
+        if !s.best_effort && s.max_error.is_some() {
+            return Err(Error::Parameter(format!(
+                "{msg}. Nothing written; raise the budget or add --best-effort"
+            )));
+        }
+        let why = if s.best_effort {
+            "--best-effort"
+        } else {
+            "the default budget is best effort"
+        };
+        messages.push(format!("warning: {msg} (written anyway: {why})"));
+    }
+    let bytes = crate::write_material(&encoded.material)?;
+    Ok(Outcome {
+        bytes,
+        encoded,
+        samples: set,
+        messages,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_parse_as_on_the_command_line() {
+        let mut s = EncodeSettings::default();
+        for (k, v) in [
+            ("basis", "cosine"),
+            ("terms", "5"),
+            ("sh_level", "3"),
+            ("--peak", "paper"),
+            ("critical-angle", "37"),
+            ("precision", "f32"),
+            ("lobes", "gaussian,microfacet"),
+            ("max_error", "1%"),
+            ("best_effort", "true"),
+            ("metadata", "source=lab 4"),
+            ("no_sample_positions", "1"),
+            ("wavelengths", "450:650"),
+            ("incident_max", "60"),
+        ] {
+            s.set(k, v).unwrap();
+        }
+        assert_eq!(s.encoder.basis, SpectralBasis::Cosine);
+        assert_eq!((s.encoder.terms, s.encoder.sh_level), (Some(5), Some(3)));
+        assert_eq!(s.max_error, Some(0.01));
+        assert_eq!(
+            s.encoder.lobes,
+            vec![LobeFamily::Gaussian, LobeFamily::Microfacet]
+        );
+        assert_eq!(
+            s.encoder.provenance,
+            vec![("source".into(), "lab 4".into())]
+        );
+        assert!(!s.encoder.sample_positions);
+        assert_eq!(s.wavelengths, Some((450.0, 650.0)));
+        for (k, v) in [
+            ("basis", "wavelet"),
+            ("terms", "-1"),
+            ("max-error", "0"),
+            ("wavelengths", "650:450"),
+            ("colour", "red"),
+        ] {
+            let e = s.set(k, v).unwrap_err().to_string();
+            assert!(e.contains(k) || e.contains("unknown"), "{k}: {e}");
+        }
+    }
+}

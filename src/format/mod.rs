@@ -1,0 +1,51 @@
+//! Bytes: the `.sbrdf` format, version 1.0 — signature, chunk types, limits; the writer and
+//! the reader. Uses [`crate::model`] only.
+//!
+//! Normative text: `spec/FORMAT.md`. Layout: a 10-byte signature, then chunks of
+//! `length: u32 | type: [u8; 4] | data | crc: u32` (CRC-32/ISO-HDLC over type and data), all
+//! little-endian. A first letter in upper case marks a critical chunk, lower case an ancillary
+//! one that readers may skip.
+
+mod read;
+mod write;
+
+pub use read::read_material;
+pub use write::{f16_scale, quantize_record_f16, write_material};
+
+/// The first ten bytes of every file. 0x89 catches 7-bit transports, "\r\n" and "\n" catch
+/// line-ending translation, 0x1A stops `type` on old systems (PNG's design).
+pub const SIGNATURE: [u8; 10] = [0x89, b'S', b'B', b'R', b'D', b'F', 0x0D, 0x0A, 0x1A, 0x0A];
+pub const VERSION_MAJOR: u16 = 1;
+pub const VERSION_MINOR: u16 = 0;
+/// The only angle convention so far (see `spec/EVALUATION.md`).
+pub const ANGLE_CONVENTION: u8 = 1;
+
+pub const CHUNK_HEAD: [u8; 4] = *b"HEAD";
+pub const CHUNK_RECD: [u8; 4] = *b"RECD";
+pub const CHUNK_ENDF: [u8; 4] = *b"ENDF";
+pub const CHUNK_SBAS: [u8; 4] = *b"SBAS";
+pub const CHUNK_META: [u8; 4] = *b"meta";
+pub const CHUNK_SAMP: [u8; 4] = *b"samp";
+
+pub(crate) const HEAD_FIXED: usize = 40;
+pub(crate) const RECD_FIXED: usize = 40;
+pub(crate) const LOBE_FIXED: usize = 4;
+
+/// The largest chunk the format allows (as PNG: 2³¹ − 1).
+pub(crate) const MAX_CHUNK: usize = 0x7FFF_FFFF;
+
+/// Resource limits for reading untrusted files.
+#[derive(Debug, Clone)]
+pub struct Limits {
+    /// Files larger than this are refused before parsing. Every allocation the reader makes is
+    /// bounded by the bytes actually present, so memory use stays within about twice this.
+    pub max_file_bytes: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_file_bytes: 256 << 20,
+        }
+    }
+}

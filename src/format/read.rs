@@ -1,0 +1,606 @@
+//! Reading a file: every chunk framed, CRC-checked and bounded by the bytes present, then
+//! validated into a [`Material`] (`spec/FORMAT.md`, "Decoder behaviour").
+
+use super::*;
+use crate::error::{Error, Location, Result};
+use crate::model::material::*;
+use crate::model::sh::{sh_count, MAX_SH_LEVEL};
+use crate::model::spectral::{SpectralBasis, SpectralSpace};
+use crate::model::Precision;
+use half::f16;
+
+/// Reads little-endian fields from one chunk's data, reporting file offsets in errors.
+struct Fields<'a> {
+    data: &'a [u8],
+    pos: usize,
+    /// File offset of data[0].
+    base: u64,
+    chunk: [u8; 4],
+}
+
+impl<'a> Fields<'a> {
+    fn at(&self) -> Location {
+        Location {
+            offset: self.base + self.pos as u64,
+            chunk: Some(self.chunk),
+        }
+    }
+    fn malformed(&self, message: impl Into<String>) -> Error {
+        Error::Format {
+            at: self.at(),
+            message: message.into(),
+        }
+    }
+    fn unsupported(&self, message: impl Into<String>) -> Error {
+        Error::Unsupported {
+            at: self.at(),
+            message: message.into(),
+        }
+    }
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
+        if self.data.len() - self.pos < n {
+            return Err(self.malformed(format!(
+                "chunk ends before its field '{what}' ({} bytes left, {n} needed)",
+                self.data.len() - self.pos
+            )));
+        }
+        let s = &self.data[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    fn remaining(&self) -> usize {
+        self.data.len() - self.pos
+    }
+    fn u8(&mut self, what: &str) -> Result<u8> {
+        Ok(self.take(1, what)?[0])
+    }
+    fn u16(&mut self, what: &str) -> Result<u16> {
+        Ok(u16::from_le_bytes(self.take(2, what)?.try_into().unwrap()))
+    }
+    fn u32(&mut self, what: &str) -> Result<u32> {
+        Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn f32(&mut self, what: &str) -> Result<f32> {
+        Ok(f32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn f64(&mut self, what: &str) -> Result<f64> {
+        Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
+    }
+    fn stored(&mut self, precision: Precision, scale: f32, what: &str) -> Result<f32> {
+        Ok(match precision {
+            Precision::F32 => self.f32(what)?,
+            Precision::F16 => {
+                f16::from_le_bytes(self.take(2, what)?.try_into().unwrap()).to_f32() * scale
+            }
+        })
+    }
+    fn zero(&mut self, n: usize, what: &str) -> Result<()> {
+        let at = self.at();
+        if self.take(n, what)?.iter().any(|&b| b != 0) {
+            return Err(Error::Format {
+                at,
+                message: format!("reserved field '{what}' is not zero"),
+            });
+        }
+        Ok(())
+    }
+    fn finish(&self) -> Result<()> {
+        if self.remaining() != 0 {
+            return Err(self.malformed(format!(
+                "{} unexpected bytes at the end of the chunk",
+                self.remaining()
+            )));
+        }
+        Ok(())
+    }
+}
+
+struct Head {
+    spectral: SpectralSpace,
+    sh_level: usize,
+    isotropic: bool,
+    minor: u16,
+    wavelengths: Vec<f32>,
+    incidences: Vec<[f32; 2]>,
+}
+
+fn read_head(f: &mut Fields) -> Result<Head> {
+    let major = f.u16("version_major")?;
+    let minor = f.u16("version_minor")?;
+    if major != VERSION_MAJOR {
+        return Err(f.unsupported(format!(
+            "the file is format version {major}.{minor}; this sbrdf reads version {VERSION_MAJOR}.x \
+             (a newer major version changes meaning: upgrade sbrdf to read it)"
+        )));
+    }
+    let flags = f.u32("flags")?;
+    if flags & !1 != 0 {
+        return Err(f.unsupported(format!("unknown flag bits {flags:#x} set")));
+    }
+    let basis_code = f.u8("spectral_basis")?;
+    let basis = SpectralBasis::from_code(basis_code)
+        .ok_or_else(|| f.unsupported(format!("unknown spectral basis code {basis_code}")))?;
+    f.zero(1, "reserved")?;
+    let sh_level = f.u8("sh_level")? as usize;
+    if sh_level > MAX_SH_LEVEL {
+        return Err(f.malformed(format!("SH level {sh_level} exceeds {MAX_SH_LEVEL}")));
+    }
+    let conv = f.u8("angle_convention")?;
+    if conv != ANGLE_CONVENTION {
+        return Err(f.unsupported(format!("unknown angle convention {conv}")));
+    }
+    let terms = f.u16("terms")? as usize;
+    if terms == 0 || terms > MAX_TERMS {
+        return Err(f.malformed(format!("{terms} spectral terms (1 to {MAX_TERMS} allowed)")));
+    }
+    f.zero(2, "reserved")?;
+    let lambda_min = f.f64("lambda_min")?;
+    let lambda_max = f.f64("lambda_max")?;
+    let w = f.u32("wavelength_count")? as usize;
+    let n = f.u32("incident_count")? as usize;
+    // Check the counts against the bytes present before allocating anything for them.
+    let need = (w as u64) * 4 + (n as u64) * 8;
+    if need != f.remaining() as u64 {
+        return Err(f.malformed(format!(
+            "{w} wavelengths and {n} incident directions need {need} bytes, the chunk has {}",
+            f.remaining()
+        )));
+    }
+    let mut wavelengths = Vec::with_capacity(w);
+    for _ in 0..w {
+        wavelengths.push(f.f32("wavelength")?);
+    }
+    let mut incidences = Vec::with_capacity(n);
+    for _ in 0..n {
+        incidences.push([f.f32("theta_i")?, f.f32("phi_i")?]);
+    }
+    f.finish()?;
+    Ok(Head {
+        spectral: SpectralSpace::analytic(basis, terms, lambda_min, lambda_max),
+        sh_level,
+        isotropic: flags & 1 == 1,
+        minor,
+        wavelengths,
+        incidences,
+    })
+}
+
+fn read_record(f: &mut Fields, h: &Head, expected_index: usize) -> Result<IncidentRecord> {
+    let index = f.u32("index")? as usize;
+    if index != expected_index {
+        return Err(f.malformed(format!(
+            "record index {index} where record {expected_index} was expected"
+        )));
+    }
+    let theta_i = f.f32("theta_i")?;
+    let phi_i = f.f32("phi_i")?;
+    let [ht, hp] = h.incidences[index];
+    if theta_i.to_bits() != ht.to_bits() || phi_i.to_bits() != hp.to_bits() {
+        return Err(f.malformed(format!(
+            "record {index} is for incidence ({theta_i}, {phi_i}) but HEAD lists ({ht}, {hp})"
+        )));
+    }
+    let theta_p = f.f32("theta_p")?;
+    let phi_p = f.f32("phi_p")?;
+    let rel_error = f.f32("rel_error")?;
+    let critical_angle = f.f32("critical_angle")?;
+    let scale = f.f32("scale")?;
+    let lobe_count = f.u8("lobe_count")? as usize;
+    if lobe_count > MAX_LOBES {
+        return Err(f.malformed(format!("{lobe_count} lobes exceed {MAX_LOBES}")));
+    }
+    let prec_code = f.u8("precision")?;
+    let precision = Precision::from_code(prec_code)
+        .ok_or_else(|| f.unsupported(format!("unknown storage precision code {prec_code}")))?;
+    let sh_level = f.u8("sh_level")? as usize;
+    if sh_level > h.sh_level {
+        return Err(f.malformed(format!(
+            "record SH level {sh_level} above the file's {}",
+            h.sh_level
+        )));
+    }
+    f.zero(1, "reserved")?;
+    let k = f.u16("terms")? as usize;
+    if k == 0 || k > h.spectral.terms {
+        return Err(f.malformed(format!(
+            "record uses {k} terms, the file allows 1 to {}",
+            h.spectral.terms
+        )));
+    }
+    f.zero(2, "reserved")?;
+    let scale_ok = match precision {
+        Precision::F32 => scale == 1.0,
+        // A positive normal or subnormal power of two: one bit set in the significand field,
+        // or a zero significand with a non-zero exponent.
+        Precision::F16 => {
+            let b = scale.to_bits();
+            let (exp, man) = ((b >> 23) & 0xff, b & 0x7f_ffff);
+            b >> 31 == 0
+                && exp != 0xff
+                && ((exp != 0 && man == 0) || (exp == 0 && man.is_power_of_two()))
+        }
+    };
+    if !scale_ok {
+        return Err(f.malformed(format!(
+            "record scale {scale} is not 1 (f32 records) or a positive power of two (f16)"
+        )));
+    }
+    let p = sh_count(sh_level);
+    let s = precision.bytes();
+    // Check the fixed-size part against the bytes present before allocating for it.
+    if k * p * s > f.remaining() {
+        return Err(f.malformed(format!(
+            "{k} terms × {p} SH coefficients need {} bytes, the record has {}",
+            k * p * s,
+            f.remaining()
+        )));
+    }
+    let mut sh = Vec::with_capacity(k * p);
+    for _ in 0..k * p {
+        sh.push(f.stored(precision, scale, "sh")?);
+    }
+    let mut lobes = Vec::with_capacity(lobe_count);
+    for _ in 0..lobe_count {
+        let code = f.u8("lobe_kind")?;
+        f.zero(1, "reserved")?;
+        let len = f.u16("lobe_length")? as usize;
+        if len > f.remaining() {
+            return Err(f.malformed(format!(
+                "lobe claims {len} bytes, the record has {} left",
+                f.remaining()
+            )));
+        }
+        let kind = LobeKind::from_code(code)
+            .ok_or_else(|| f.unsupported(format!("unknown lobe kind {code}")))?;
+        let (na, np) = (kind.amplitude_count(k), kind.param_count(k));
+        let need = na * s + 4 * np;
+        if len != need {
+            return Err(f.malformed(format!(
+                "a {} lobe of {k} terms is {need} bytes, not {len}",
+                kind.name()
+            )));
+        }
+        let mut amplitude = Vec::with_capacity(na);
+        for _ in 0..na {
+            amplitude.push(f.stored(precision, scale, "amplitude")?);
+        }
+        let mut params = Vec::with_capacity(np);
+        for _ in 0..np {
+            params.push(f.f32("lobe_parameter")?);
+        }
+        lobes.push(Lobe {
+            kind,
+            amplitude,
+            params,
+        });
+    }
+    f.finish()?;
+    Ok(IncidentRecord {
+        terms: k,
+        sh_level,
+        precision,
+        theta_i,
+        phi_i,
+        theta_p,
+        phi_p,
+        rel_error,
+        critical_angle,
+        sh,
+        lobes,
+    })
+}
+
+/// Reads a `samp` chunk; `Ok(None)` when it uses a direction-set kind this reader does not know
+/// (the chunk is ancillary, so it is skipped as a whole).
+fn read_samp(f: &mut Fields, n: usize) -> Result<Option<SamplePositions>> {
+    let set_count = f.u32("set_count")? as usize;
+    // Each set takes at least 5 bytes, each incidence 4: bound the counts by the bytes present.
+    if set_count == 0 || set_count as u64 * 5 + n as u64 * 4 > f.remaining() as u64 {
+        return Err(f.malformed(format!(
+            "{set_count} direction sets for {n} incidences cannot fit in {} bytes",
+            f.remaining()
+        )));
+    }
+    let mut sets = Vec::with_capacity(set_count);
+    for _ in 0..set_count {
+        match f.u8("set_kind")? {
+            0 => {
+                let theta0 = f.f32("theta0")?;
+                let dtheta = f.f32("dtheta")?;
+                let ntheta = f.u32("ntheta")?;
+                let phi0 = f.f32("phi0")?;
+                let dphi = f.f32("dphi")?;
+                let nphi = f.u32("nphi")?;
+                // A grid costs 24 bytes but expands: bound its size like any other allocation.
+                if ntheta as u64 * nphi as u64 > MAX_SET_DIRECTIONS {
+                    return Err(f.malformed(format!(
+                        "grid of {ntheta}×{nphi} directions exceeds {MAX_SET_DIRECTIONS}"
+                    )));
+                }
+                sets.push(DirectionSet::Grid {
+                    theta0,
+                    dtheta,
+                    ntheta,
+                    phi0,
+                    dphi,
+                    nphi,
+                });
+            }
+            1 => {
+                let count = f.u32("direction_count")? as usize;
+                if count as u64 * 8 > f.remaining() as u64 || count as u64 > MAX_SET_DIRECTIONS {
+                    return Err(f.malformed(format!(
+                        "{count} directions cannot fit in {} bytes",
+                        f.remaining()
+                    )));
+                }
+                let mut v = Vec::with_capacity(count);
+                for _ in 0..count {
+                    v.push([f.f32("theta_o")?, f.f32("phi_o")?]);
+                }
+                sets.push(DirectionSet::List(v));
+            }
+            _ => return Ok(None),
+        }
+    }
+    let mut set_of_incidence = Vec::with_capacity(n);
+    for _ in 0..n {
+        set_of_incidence.push(f.u32("set_index")?);
+    }
+    f.finish()?;
+    Ok(Some(SamplePositions {
+        sets,
+        set_of_incidence,
+    }))
+}
+
+fn location(offset: usize, chunk: Option<[u8; 4]>) -> Location {
+    Location {
+        offset: offset as u64,
+        chunk,
+    }
+}
+
+/// Parses and validates a whole file. Every CRC is checked (except in fuzzing builds, so the
+/// fuzzer can reach the parser behind them).
+pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
+    if bytes.len() > limits.max_file_bytes {
+        return Err(Error::LimitsExceeded(format!(
+            "file of {} bytes exceeds the limit of {} bytes",
+            bytes.len(),
+            limits.max_file_bytes
+        )));
+    }
+    let malformed = |offset: usize, chunk: Option<[u8; 4]>, message: String| Error::Format {
+        at: location(offset, chunk),
+        message,
+    };
+    if bytes.len() < SIGNATURE.len() || bytes[..SIGNATURE.len()] != SIGNATURE {
+        let message = if bytes.starts_with(b"\x89SBRDF") {
+            "the signature is damaged: the file went through a text-mode transfer that changed \
+             line endings, or was truncated"
+        } else if bytes.len() < SIGNATURE.len() && SIGNATURE.starts_with(bytes) {
+            "the file is truncated inside its signature"
+        } else {
+            "not an sbrdf file (the signature is missing)"
+        };
+        return Err(malformed(0, None, message.into()));
+    }
+    let mut pos = SIGNATURE.len();
+    let mut head: Option<Head> = None;
+    let mut records = Vec::new();
+    let mut metadata = None;
+    let mut samples = None;
+    let mut seen_samp = false;
+    let mut table = None;
+    loop {
+        if pos == bytes.len() {
+            return Err(malformed(
+                pos,
+                None,
+                "the file ends without its ENDF chunk (truncated?)".into(),
+            ));
+        }
+        if bytes.len() - pos < 12 {
+            return Err(malformed(
+                pos,
+                None,
+                format!(
+                    "{} bytes left, too few for a chunk (truncated?)",
+                    bytes.len() - pos
+                ),
+            ));
+        }
+        let len = u32::from_le_bytes(bytes[pos..pos + 4].try_into().unwrap()) as usize;
+        let kind: [u8; 4] = bytes[pos + 4..pos + 8].try_into().unwrap();
+        if !kind.iter().all(|b| b.is_ascii_alphabetic()) {
+            return Err(malformed(
+                pos + 4,
+                None,
+                format!("chunk type {kind:02x?} is not four ASCII letters"),
+            ));
+        }
+        if len > MAX_CHUNK || len > bytes.len() - pos - 12 {
+            return Err(malformed(
+                pos,
+                Some(kind),
+                format!(
+                    "chunk claims {len} bytes of data but only {} remain (truncated?)",
+                    bytes.len() - pos - 12
+                ),
+            ));
+        }
+        let data = &bytes[pos + 8..pos + 8 + len];
+        let stored = u32::from_le_bytes(bytes[pos + 8 + len..pos + 12 + len].try_into().unwrap());
+        let mut h = crc32fast::Hasher::new();
+        h.update(&kind);
+        h.update(data);
+        let computed = h.finalize();
+        if stored != computed && !cfg!(fuzzing) {
+            return Err(malformed(
+                pos + 8 + len,
+                Some(kind),
+                format!(
+                    "CRC mismatch: stored {stored:#010x}, computed {computed:#010x} (the chunk is damaged)"
+                ),
+            ));
+        }
+        let mut f = Fields {
+            data,
+            pos: 0,
+            base: (pos + 8) as u64,
+            chunk: kind,
+        };
+        let next = pos + 12 + len;
+        match (&kind, &head) {
+            (&CHUNK_HEAD, None) => head = Some(read_head(&mut f)?),
+            (_, None) => {
+                return Err(malformed(
+                    pos,
+                    Some(kind),
+                    "the first chunk must be HEAD".into(),
+                ))
+            }
+            (&CHUNK_HEAD, Some(_)) => {
+                return Err(malformed(pos, Some(kind), "a second HEAD chunk".into()))
+            }
+            (&CHUNK_SBAS, Some(h)) => {
+                if h.spectral.basis != SpectralBasis::Tabulated {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "an SBAS chunk in a file whose basis is not tabulated".into(),
+                    ));
+                }
+                if table.is_some() || !records.is_empty() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "SBAS must appear once, before the records".into(),
+                    ));
+                }
+                let code = f.u8("precision")?;
+                let precision = Precision::from_code(code)
+                    .ok_or_else(|| f.unsupported(format!("unknown basis precision code {code}")))?;
+                f.zero(3, "reserved")?;
+                let count = h.spectral.terms * h.wavelengths.len();
+                let need = 4 + (count * precision.bytes()) as u64;
+                if need != len as u64 {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        format!(
+                            "{} terms × {} wavelengths in {} need {need} bytes, the chunk has {len}",
+                            h.spectral.terms,
+                            h.wavelengths.len(),
+                            precision.name()
+                        ),
+                    ));
+                }
+                let mut values = Vec::with_capacity(count);
+                for _ in 0..count {
+                    values.push(f.stored(precision, 1.0, "basis_value")? as f64);
+                }
+                table = Some(crate::model::spectral::BasisTable {
+                    nodes: h.wavelengths.iter().map(|&w| w as f64).collect(),
+                    values,
+                    precision,
+                });
+            }
+            (&CHUNK_RECD, Some(h)) => {
+                if h.spectral.basis == SpectralBasis::Tabulated && table.is_none() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "a tabulated basis needs its SBAS chunk before the records".into(),
+                    ));
+                }
+                if records.len() == h.incidences.len() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        format!(
+                            "more than the {} records HEAD announces",
+                            h.incidences.len()
+                        ),
+                    ));
+                }
+                records.push(read_record(&mut f, h, records.len())?);
+            }
+            (&CHUNK_META, Some(_)) => {
+                if metadata.is_some() {
+                    return Err(malformed(pos, Some(kind), "a second meta chunk".into()));
+                }
+                let text = std::str::from_utf8(data).map_err(|e| {
+                    malformed(
+                        pos + 8 + e.valid_up_to(),
+                        Some(kind),
+                        "metadata is not UTF-8".into(),
+                    )
+                })?;
+                metadata = Some(text.to_string());
+            }
+            (&CHUNK_SAMP, Some(h)) => {
+                if seen_samp {
+                    return Err(malformed(pos, Some(kind), "a second samp chunk".into()));
+                }
+                samples = Some(read_samp(&mut f, h.incidences.len())?);
+                seen_samp = true;
+            }
+            (&CHUNK_ENDF, Some(h)) => {
+                if len != 0 {
+                    return Err(malformed(pos, Some(kind), "ENDF must be empty".into()));
+                }
+                if records.len() != h.incidences.len() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        format!(
+                            "{} records present, HEAD announces {}",
+                            records.len(),
+                            h.incidences.len()
+                        ),
+                    ));
+                }
+                if next != bytes.len() {
+                    return Err(malformed(
+                        next,
+                        None,
+                        format!("{} bytes after the ENDF chunk", bytes.len() - next),
+                    ));
+                }
+                break;
+            }
+            (_, Some(_)) => {
+                if kind[0].is_ascii_uppercase() {
+                    return Err(Error::Unsupported {
+                        at: location(pos, Some(kind)),
+                        message: format!(
+                            "unknown critical chunk '{}': the file needs a newer sbrdf",
+                            String::from_utf8_lossy(&kind)
+                        ),
+                    });
+                }
+                // Unknown ancillary chunk: skipped by design.
+            }
+        }
+        pos = next;
+    }
+    let h = head.expect("loop exits only after HEAD");
+    let m = Material {
+        version_minor: h.minor,
+        spectral: SpectralSpace {
+            table,
+            ..h.spectral
+        },
+        sh_level: h.sh_level,
+        isotropic: h.isotropic,
+        wavelengths: h.wavelengths,
+        records,
+        metadata,
+        sample_positions: samples.flatten(),
+    };
+    m.validate()
+        .map_err(|message| malformed(SIGNATURE.len(), None, message))?;
+    Ok(m)
+}

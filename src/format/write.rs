@@ -1,0 +1,191 @@
+//! Writing a material: chunks framed and checksummed, f16 values under a power-of-two scale.
+
+use super::*;
+use crate::error::{Error, Result};
+use crate::model::material::*;
+use crate::model::sh::sh_count;
+use crate::model::Precision;
+use half::f16;
+
+/// The power-of-two scale that maps a record's largest magnitude into (2¹⁴, 2¹⁵] for f16
+/// storage, keeping values down to ~2⁻²⁹ of the largest in f16's normal range.
+pub fn f16_scale(values: impl Iterator<Item = f32>) -> f32 {
+    let max = values.fold(0.0f64, |m, v| m.max((v as f64).abs()));
+    if max == 0.0 || !max.is_finite() {
+        return 1.0;
+    }
+    let mut scale = 1.0f64;
+    while max / scale > 32768.0 && scale < 2f64.powi(127) {
+        scale *= 2.0;
+    }
+    while max / scale <= 16384.0 && scale > 2f64.powi(-126) {
+        scale *= 0.5;
+    }
+    scale as f32
+}
+
+/// Rounds a record's stored values to what f16 storage will hold, in place, and returns the
+/// scale. The encoder calls this before measuring its error, so the error it records is honest.
+pub fn quantize_record_f16(r: &mut IncidentRecord) -> f32 {
+    let scale = record_scale(r);
+    let q = |v: &mut f32| *v = f16::from_f32(*v / scale).to_f32() * scale;
+    r.sh.iter_mut().for_each(q);
+    for l in &mut r.lobes {
+        l.amplitude.iter_mut().for_each(q);
+    }
+    r.precision = Precision::F16;
+    scale
+}
+
+fn record_scale(r: &IncidentRecord) -> f32 {
+    f16_scale(
+        r.sh.iter()
+            .copied()
+            .chain(r.lobes.iter().flat_map(|l| l.amplitude.iter().copied())),
+    )
+}
+
+fn push_chunk(out: &mut Vec<u8>, kind: [u8; 4], data: &[u8]) {
+    out.extend_from_slice(&(data.len() as u32).to_le_bytes());
+    out.extend_from_slice(&kind);
+    out.extend_from_slice(data);
+    let mut h = crc32fast::Hasher::new();
+    h.update(&kind);
+    h.update(data);
+    out.extend_from_slice(&h.finalize().to_le_bytes());
+}
+
+/// Serialises a material. Fails only if it breaks an invariant of the format.
+pub fn write_material(m: &Material) -> Result<Vec<u8>> {
+    m.validate()
+        .map_err(|e| Error::Parameter(format!("cannot write this material: {e}")))?;
+    let k = m.spectral.terms;
+    let mut out = Vec::new();
+    out.extend_from_slice(&SIGNATURE);
+
+    let mut d = Vec::with_capacity(HEAD_FIXED + 4 * m.wavelengths.len() + 8 * m.records.len());
+    d.extend_from_slice(&VERSION_MAJOR.to_le_bytes());
+    d.extend_from_slice(&VERSION_MINOR.to_le_bytes());
+    d.extend_from_slice(&(m.isotropic as u32).to_le_bytes());
+    d.push(m.spectral.basis.code());
+    d.push(0); // reserved (precision is per record)
+    d.push(m.sh_level as u8);
+    d.push(ANGLE_CONVENTION);
+    d.extend_from_slice(&(k as u16).to_le_bytes());
+    d.extend_from_slice(&0u16.to_le_bytes());
+    d.extend_from_slice(&m.spectral.lambda_min.to_le_bytes());
+    d.extend_from_slice(&m.spectral.lambda_max.to_le_bytes());
+    d.extend_from_slice(&(m.wavelengths.len() as u32).to_le_bytes());
+    d.extend_from_slice(&(m.records.len() as u32).to_le_bytes());
+    for w in &m.wavelengths {
+        d.extend_from_slice(&w.to_le_bytes());
+    }
+    for r in &m.records {
+        d.extend_from_slice(&r.theta_i.to_le_bytes());
+        d.extend_from_slice(&r.phi_i.to_le_bytes());
+    }
+    push_chunk(&mut out, CHUNK_HEAD, &d);
+
+    if let Some(table) = &m.spectral.table {
+        let mut d = Vec::with_capacity(4 + 4 * table.values.len());
+        d.extend_from_slice(&[table.precision.code(), 0, 0, 0]);
+        for v in &table.values {
+            match table.precision {
+                Precision::F32 => d.extend_from_slice(&(*v as f32).to_le_bytes()),
+                Precision::F16 => d.extend_from_slice(&f16::from_f64(*v).to_le_bytes()),
+            }
+        }
+        push_chunk(&mut out, CHUNK_SBAS, &d);
+    }
+    if let Some(meta) = &m.metadata {
+        push_chunk(&mut out, CHUNK_META, meta.as_bytes());
+    }
+    if let Some(sp) = &m.sample_positions {
+        let mut d = Vec::new();
+        d.extend_from_slice(&(sp.sets.len() as u32).to_le_bytes());
+        for s in &sp.sets {
+            match s {
+                DirectionSet::Grid {
+                    theta0,
+                    dtheta,
+                    ntheta,
+                    phi0,
+                    dphi,
+                    nphi,
+                } => {
+                    d.push(0);
+                    for v in [theta0, dtheta] {
+                        d.extend_from_slice(&v.to_le_bytes());
+                    }
+                    d.extend_from_slice(&ntheta.to_le_bytes());
+                    for v in [phi0, dphi] {
+                        d.extend_from_slice(&v.to_le_bytes());
+                    }
+                    d.extend_from_slice(&nphi.to_le_bytes());
+                }
+                DirectionSet::List(v) => {
+                    d.push(1);
+                    d.extend_from_slice(&(v.len() as u32).to_le_bytes());
+                    for dir in v {
+                        d.extend_from_slice(&dir[0].to_le_bytes());
+                        d.extend_from_slice(&dir[1].to_le_bytes());
+                    }
+                }
+            }
+        }
+        for i in &sp.set_of_incidence {
+            d.extend_from_slice(&i.to_le_bytes());
+        }
+        push_chunk(&mut out, CHUNK_SAMP, &d);
+    }
+
+    for (index, r) in m.records.iter().enumerate() {
+        let (k, p, s) = (r.terms, sh_count(r.sh_level), r.precision.bytes());
+        let mut d =
+            Vec::with_capacity(RECD_FIXED + k * p * s + r.lobes.len() * (LOBE_FIXED + 16 * k));
+        let scale = match r.precision {
+            Precision::F32 => 1.0f32,
+            Precision::F16 => record_scale(r),
+        };
+        d.extend_from_slice(&(index as u32).to_le_bytes());
+        for v in [
+            r.theta_i,
+            r.phi_i,
+            r.theta_p,
+            r.phi_p,
+            r.rel_error,
+            r.critical_angle,
+            scale,
+        ] {
+            d.extend_from_slice(&v.to_le_bytes());
+        }
+        d.push(r.lobes.len() as u8);
+        d.push(r.precision.code());
+        d.push(r.sh_level as u8);
+        d.push(0);
+        d.extend_from_slice(&(k as u16).to_le_bytes());
+        d.extend_from_slice(&0u16.to_le_bytes());
+        let put = |d: &mut Vec<u8>, v: f32| match r.precision {
+            Precision::F32 => d.extend_from_slice(&v.to_le_bytes()),
+            Precision::F16 => d.extend_from_slice(&f16::from_f32(v / scale).to_le_bytes()),
+        };
+        for &v in &r.sh {
+            put(&mut d, v);
+        }
+        for lobe in &r.lobes {
+            let lobe_bytes = lobe.amplitude.len() * s + 4 * lobe.params.len();
+            d.push(lobe.kind.code());
+            d.push(0);
+            d.extend_from_slice(&(lobe_bytes as u16).to_le_bytes());
+            for &v in &lobe.amplitude {
+                put(&mut d, v);
+            }
+            for &v in &lobe.params {
+                d.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        push_chunk(&mut out, CHUNK_RECD, &d);
+    }
+    push_chunk(&mut out, CHUNK_ENDF, &[]);
+    Ok(out)
+}

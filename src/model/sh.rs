@@ -1,0 +1,196 @@
+//! Real spherical harmonics, orthonormal on the sphere, evaluated from Cartesian coordinates.
+//!
+//! Convention (normative text: `spec/EVALUATION.md`, section "Spherical harmonics"):
+//! index j = l(l+1) + m for level l = 0..=L and order m = −l..=l, so there are (L+1)² functions;
+//! Y_l^0 = K_l^0 P_l^0(z), Y_l^m = √2 K_l^m P_l^m(z) cos(mφ) for m > 0 and
+//! Y_l^m = √2 K_l^|m| P_l^|m|(z) sin(|m|φ) for m < 0, with
+//! K_l^m = √((2l+1)/(4π) · (l−m)!/(l+m)!) and P_l^m the associated Legendre function *without* the
+//! Condon–Shortley phase. Evaluating sin^m θ·cos(mφ) as Re((x+iy)^m) avoids angles, so the poles
+//! and the horizon need no special case.
+
+/// The highest SH level the format allows (keeps (L+1)² and the normalisation well inside f64).
+pub const MAX_SH_LEVEL: usize = 20;
+
+/// Number of coefficients for level L.
+pub const fn sh_count(level: usize) -> usize {
+    (level + 1) * (level + 1)
+}
+
+/// Precomputed normalisation constants for one maximum level.
+#[derive(Debug, Clone)]
+pub struct ShBasis {
+    level: usize,
+    /// K_l^m for m ≥ 0, times √2 where m > 0, indexed by l(l+1)/2 + m.
+    norm: Vec<f64>,
+}
+
+impl ShBasis {
+    /// Panics if `level > MAX_SH_LEVEL`; callers validate levels read from files first.
+    pub fn new(level: usize) -> Self {
+        assert!(
+            level <= MAX_SH_LEVEL,
+            "SH level {level} above {MAX_SH_LEVEL}"
+        );
+        let mut norm = Vec::with_capacity((level + 1) * (level + 2) / 2);
+        for l in 0..=level {
+            for m in 0..=l {
+                // (l−m)!/(l+m)! as a product, which cannot overflow for l ≤ 20.
+                let mut ratio = 1.0f64;
+                for t in (l - m + 1)..=(l + m) {
+                    ratio /= t as f64;
+                }
+                let k = ((2 * l + 1) as f64 / (4.0 * std::f64::consts::PI) * ratio).sqrt();
+                norm.push(if m == 0 {
+                    k
+                } else {
+                    k * std::f64::consts::SQRT_2
+                });
+            }
+        }
+        ShBasis { level, norm }
+    }
+
+    pub fn level(&self) -> usize {
+        self.level
+    }
+
+    pub fn count(&self) -> usize {
+        sh_count(self.level)
+    }
+
+    /// Evaluates every Y_j at the unit vector `d` into `out[..count()]`. `d` must be unit length
+    /// (callers normalise); a non-unit vector gives a scaled, meaningless result.
+    pub fn eval(&self, d: [f64; 3], out: &mut [f64]) {
+        self.eval_to_level(self.level, d, out)
+    }
+
+    /// [`ShBasis::eval`] for the functions up to `level` (≤ the basis's level) only.
+    pub fn eval_to_level(&self, level: usize, d: [f64; 3], out: &mut [f64]) {
+        let level = level.min(self.level);
+        let [x, y, z] = d;
+        let out = &mut out[..sh_count(level)];
+        // (x + iy)^m, advanced one m at a time.
+        let (mut cm, mut sm) = (1.0f64, 0.0f64);
+        // Q_m^m = (2m−1)!!, the polynomial part of P_m^m / sin^m θ.
+        let mut qmm = 1.0f64;
+        for m in 0..=level {
+            if m > 0 {
+                let (c, s) = (cm * x - sm * y, cm * y + sm * x);
+                cm = c;
+                sm = s;
+                qmm *= (2 * m - 1) as f64;
+            }
+            let mut q_prev = 0.0f64; // Q_{l-2}^m
+            let mut q = qmm; // Q_{l-1}^m, then Q_l^m
+            for l in m..=level {
+                if l == m + 1 {
+                    q_prev = q;
+                    q = (2 * m + 1) as f64 * z * qmm;
+                } else if l > m + 1 {
+                    let next =
+                        ((2 * l - 1) as f64 * z * q - (l + m - 1) as f64 * q_prev) / (l - m) as f64;
+                    q_prev = q;
+                    q = next;
+                }
+                let k = self.norm[l * (l + 1) / 2 + m];
+                let centre = l * (l + 1);
+                if m == 0 {
+                    out[centre] = k * q;
+                } else {
+                    out[centre + m] = k * q * cm;
+                    out[centre - m] = k * q * sm;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::angles::dir_from_deg;
+    use std::f64::consts::PI;
+
+    /// Closed forms for l ≤ 2 written out independently of the recurrence.
+    fn closed_form(d: [f64; 3]) -> [f64; 9] {
+        let [x, y, z] = d;
+        let c0 = 0.5 * (1.0 / PI).sqrt();
+        let c1 = (3.0 / (4.0 * PI)).sqrt();
+        let c2 = 0.5 * (15.0 / PI).sqrt();
+        let c20 = 0.25 * (5.0 / PI).sqrt();
+        [
+            c0,
+            c1 * y,
+            c1 * z,
+            c1 * x,
+            c2 * x * y,
+            c2 * y * z,
+            c20 * (3.0 * z * z - 1.0),
+            c2 * x * z,
+            0.5 * c2 * (x * x - y * y),
+        ]
+    }
+
+    #[test]
+    fn matches_closed_forms() {
+        let b = ShBasis::new(2);
+        let mut out = [0.0; 9];
+        for &(t, p) in &[(0.0, 0.0), (37.0, 12.0), (90.0, 200.0), (63.0, 300.0)] {
+            let d = dir_from_deg(t, p);
+            b.eval(d, &mut out);
+            let want = closed_form(d);
+            for j in 0..9 {
+                assert!(
+                    (out[j] - want[j]).abs() < 1e-14,
+                    "j={j} {} {}",
+                    out[j],
+                    want[j]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn orthonormal_on_the_sphere() {
+        // Gauss–Legendre would be exact; a fine midpoint grid is accurate to ~1e-6 here.
+        let level = 6;
+        let b = ShBasis::new(level);
+        let n = b.count();
+        let mut gram = vec![0.0; n * n];
+        let (nt, np) = (400, 800);
+        let mut y = vec![0.0; n];
+        for i in 0..nt {
+            let t = (i as f64 + 0.5) * PI / nt as f64;
+            let w = t.sin() * (PI / nt as f64) * (2.0 * PI / np as f64);
+            for k in 0..np {
+                let p = (k as f64 + 0.5) * 2.0 * PI / np as f64;
+                b.eval([t.sin() * p.cos(), t.sin() * p.sin(), t.cos()], &mut y);
+                for a in 0..n {
+                    for c in 0..n {
+                        gram[a * n + c] += w * y[a] * y[c];
+                    }
+                }
+            }
+        }
+        for a in 0..n {
+            for c in 0..n {
+                let want = if a == c { 1.0 } else { 0.0 };
+                assert!(
+                    (gram[a * n + c] - want).abs() < 1e-4,
+                    "{a},{c}: {}",
+                    gram[a * n + c]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn finite_at_highest_level_everywhere() {
+        let b = ShBasis::new(MAX_SH_LEVEL);
+        let mut out = vec![0.0; b.count()];
+        for &(t, p) in &[(0.0, 0.0), (90.0, 0.0), (180.0, 0.0), (45.0, 45.0)] {
+            b.eval(dir_from_deg(t, p), &mut out);
+            assert!(out.iter().all(|v| v.is_finite()));
+        }
+    }
+}

@@ -1,0 +1,523 @@
+//! Spectral bases: how a spectrum ρ(λ) at one pair of directions becomes K coefficients and back.
+//!
+//! Normative text: `spec/EVALUATION.md`, section "Spectral basis".
+
+use std::f64::consts::PI;
+
+/// Which family of functions of λ the coefficients multiply. The numeric codes are the ones
+/// stored in the file's `HEAD` chunk and never change meaning.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SpectralBasis {
+    /// The paper's periodic Fourier series over [λmin, λmax] (Eqs. 4–5): coefficients in the
+    /// order a0, a1, b1, a2, b2, …; the basis functions are 1/2, cos(j t), sin(j t) with
+    /// t = 2π(λ − λmin)/(λmax − λmin).
+    PeriodicFourier,
+    /// The cosine series (the Fourier series of the mirror-extended spectrum, i.e. a DCT):
+    /// 1, cos(π t), cos(2π t), … with t = (λ − λmin)/(λmax − λmin). No wrap-around, so no ringing
+    /// where the spectrum's ends differ.
+    Cosine,
+    /// A basis derived from the data (the leading right singular vectors of the samples), stored
+    /// in the file as its values at the wavelength samples and interpolated linearly between them.
+    Tabulated,
+}
+
+impl SpectralBasis {
+    pub fn code(self) -> u8 {
+        match self {
+            SpectralBasis::PeriodicFourier => 1,
+            SpectralBasis::Cosine => 2,
+            SpectralBasis::Tabulated => 3,
+        }
+    }
+
+    pub fn from_code(code: u8) -> Option<Self> {
+        match code {
+            1 => Some(SpectralBasis::PeriodicFourier),
+            2 => Some(SpectralBasis::Cosine),
+            3 => Some(SpectralBasis::Tabulated),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SpectralBasis::PeriodicFourier => "fourier",
+            SpectralBasis::Cosine => "cosine",
+            SpectralBasis::Tabulated => "data",
+        }
+    }
+}
+
+/// Basis functions given by their values at wavelength nodes (for [`SpectralBasis::Tabulated`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BasisTable {
+    /// Strictly increasing wavelengths, nm (the file's wavelength samples).
+    pub nodes: Vec<f64>,
+    /// `terms` rows of `nodes.len()` values: row k is basis function k.
+    pub values: Vec<f64>,
+    /// How the values are stored (each value must be exactly representable in it).
+    pub precision: crate::model::Precision,
+}
+
+/// A spectral basis with its number of terms and the wavelength interval it spans.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpectralSpace {
+    pub basis: SpectralBasis,
+    pub terms: usize,
+    /// Interval of the basis in nm. Equal ends are allowed only with one term (one wavelength).
+    pub lambda_min: f64,
+    pub lambda_max: f64,
+    /// The tabulated functions, present exactly when `basis` is `Tabulated`.
+    pub table: Option<BasisTable>,
+}
+
+impl SpectralSpace {
+    /// A basis given by formula (no table).
+    pub fn analytic(basis: SpectralBasis, terms: usize, lambda_min: f64, lambda_max: f64) -> Self {
+        SpectralSpace {
+            basis,
+            terms,
+            lambda_min,
+            lambda_max,
+            table: None,
+        }
+    }
+
+    /// Checks the invariants a file or the encoder must satisfy; returns a message otherwise.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.terms == 0 {
+            return Err("the spectral basis needs at least one term".into());
+        }
+        if !(self.lambda_min.is_finite() && self.lambda_max.is_finite()) || self.lambda_min <= 0.0 {
+            return Err(format!(
+                "the spectral interval [{}, {}] nm is not a finite positive interval",
+                self.lambda_min, self.lambda_max
+            ));
+        }
+        if self.lambda_max < self.lambda_min
+            || (self.lambda_max == self.lambda_min && self.terms != 1)
+        {
+            return Err(format!(
+                "the spectral interval [{}, {}] nm is empty but {} terms are used",
+                self.lambda_min, self.lambda_max, self.terms
+            ));
+        }
+        match (&self.table, self.basis) {
+            (None, SpectralBasis::Tabulated) => {
+                return Err("a tabulated basis without its table".into())
+            }
+            (Some(_), SpectralBasis::PeriodicFourier | SpectralBasis::Cosine) => {
+                return Err("a table given for an analytic basis".into())
+            }
+            (Some(t), SpectralBasis::Tabulated) => {
+                if t.nodes.is_empty() || t.values.len() != self.terms * t.nodes.len() {
+                    return Err("the basis table does not have terms × nodes values".into());
+                }
+                if t.values.iter().any(|v| !v.is_finite()) {
+                    return Err("a basis table value is not finite".into());
+                }
+                if t.nodes.windows(2).any(|w| w[1] <= w[0]) {
+                    return Err("basis table nodes are not strictly increasing".into());
+                }
+            }
+            (None, _) => {}
+        }
+        Ok(())
+    }
+
+    /// Writes the K basis functions at wavelength λ (nm) into `out[..terms]`. λ outside the
+    /// interval is clamped to it: a periodic series must not wrap a query at 710 nm to 410 nm.
+    pub fn eval(&self, lambda: f64, out: &mut [f64]) {
+        let out = &mut out[..self.terms];
+        match self.basis {
+            SpectralBasis::PeriodicFourier => {
+                out[0] = 0.5;
+                if self.terms == 1 {
+                    return;
+                }
+                let span = self.lambda_max - self.lambda_min;
+                let l = lambda.clamp(self.lambda_min, self.lambda_max);
+                let t = 2.0 * PI * (l - self.lambda_min) / span;
+                for (i, v) in out.iter_mut().enumerate().skip(1) {
+                    let j = i.div_ceil(2);
+                    *v = if i % 2 == 1 {
+                        (j as f64 * t).cos()
+                    } else {
+                        (j as f64 * t).sin()
+                    };
+                }
+            }
+            SpectralBasis::Cosine => {
+                let span = self.lambda_max - self.lambda_min;
+                let t = if span > 0.0 {
+                    (lambda.clamp(self.lambda_min, self.lambda_max) - self.lambda_min) / span
+                } else {
+                    0.0
+                };
+                for (k, v) in out.iter_mut().enumerate() {
+                    *v = (PI * k as f64 * t).cos();
+                }
+            }
+            SpectralBasis::Tabulated => {
+                let table = self
+                    .table
+                    .as_ref()
+                    .expect("validated: a tabulated basis has a table");
+                let n = &table.nodes;
+                let w = n.len();
+                // Linear interpolation between nodes, constant beyond the ends.
+                // NaN is treated as below the range (the decoder maps it to 0 before this).
+                let (i, f) = if lambda.is_nan() || lambda <= n[0] || w == 1 {
+                    (0, 0.0)
+                } else if lambda >= n[w - 1] {
+                    (w - 2, 1.0)
+                } else {
+                    // Uniform nodes (the usual case) are indexed directly; the guess is checked,
+                    // and a binary search settles anything else.
+                    let h = (n[w - 1] - n[0]) / (w - 1) as f64;
+                    let g = (((lambda - n[0]) / h) as usize).min(w - 2);
+                    let i = if n[g] <= lambda && lambda < n[g + 1] {
+                        g
+                    } else {
+                        n.partition_point(|&x| x <= lambda) - 1
+                    };
+                    (i, (lambda - n[i]) / (n[i + 1] - n[i]))
+                };
+                for (k, v) in out.iter_mut().enumerate() {
+                    let row = &table.values[k * w..(k + 1) * w];
+                    *v = if w == 1 {
+                        row[0]
+                    } else {
+                        row[i] + f * (row[i + 1] - row[i])
+                    };
+                }
+            }
+        }
+    }
+
+    /// The W×K synthesis matrix (row-major): ρ(λ_w) = Σ_k S\[w\]\[k\] c_k.
+    pub fn synthesis(&self, wavelengths: &[f64]) -> Vec<f64> {
+        let mut m = vec![0.0; wavelengths.len() * self.terms];
+        for (w, &l) in wavelengths.iter().enumerate() {
+            self.eval(l, &mut m[w * self.terms..(w + 1) * self.terms]);
+        }
+        m
+    }
+
+    /// The K×W projection matrix (row-major) of the paper's Eq. (5), the integral taken by the
+    /// trapezoidal rule over the samples: a_k = (2/Δλ) ∫ ρ(λ) cos(k t) dλ, b_k likewise with sin.
+    /// With a single wavelength (Δλ = 0, one term) the coefficient is 2ρ, so that a0/2 = ρ.
+    /// This is the paper's projection for its Fourier basis; other bases are fitted by least
+    /// squares in the encoder.
+    pub fn fourier_projection(&self, wavelengths: &[f64]) -> Vec<f64> {
+        let w_count = wavelengths.len();
+        let k_count = self.terms;
+        let mut m = vec![0.0; k_count * w_count];
+        if w_count == 1 {
+            m[0] = 2.0;
+            return m;
+        }
+        let span = self.lambda_max - self.lambda_min;
+        let mut basis = vec![0.0; k_count];
+        for (w, &l) in wavelengths.iter().enumerate() {
+            let lo = if w == 0 { l } else { wavelengths[w - 1] };
+            let hi = if w + 1 == w_count {
+                l
+            } else {
+                wavelengths[w + 1]
+            };
+            let weight = 0.5 * (hi - lo);
+            self.eval(l, &mut basis);
+            for k in 0..k_count {
+                // a0 integrates ρ·1, not ρ·(1/2): undo the 1/2 of the synthesis function.
+                let f = if k == 0 { 1.0 } else { basis[k] };
+                m[k * w_count + w] = 2.0 / span * weight * f;
+            }
+        }
+        m
+    }
+}
+
+/// Σ_k c_k·B_k(λ) for many λ, with what each query needs computed once: the decoder's form of
+/// [`SpectralSpace::eval`]. The tabulated basis is stored node-major (the K values of a node
+/// side by side) with each interval's reciprocal width; the analytic bases advance cos(jθ),
+/// sin(jθ) by a recurrence from one `sin_cos`, which drifts from the direct formula by ~K·1e-16.
+#[derive(Debug, Clone)]
+pub struct SpectrumEvaluator {
+    terms: usize,
+    lambda_min: f64,
+    lambda_max: f64,
+    form: EvaluatorForm,
+}
+
+#[derive(Debug, Clone)]
+enum EvaluatorForm {
+    /// θ = scale·(λ − λmin), with scale = 2π/span (Fourier) or π/span (cosine; 0 for an empty span).
+    Fourier {
+        scale: f64,
+    },
+    Cosine {
+        scale: f64,
+    },
+    Table {
+        nodes: Vec<f64>,
+        /// values[w·K + k] = B_k(nodes[w]).
+        values: Vec<f64>,
+        /// 1 / (nodes[w+1] − nodes[w]).
+        inv_width: Vec<f64>,
+        /// Some(1/step) when the nodes are evenly spaced (to rounding): the interval is then
+        /// guessed by one multiplication and checked.
+        inv_step: Option<f64>,
+    },
+}
+
+impl SpectrumEvaluator {
+    pub fn new(space: &SpectralSpace) -> Self {
+        let span = space.lambda_max - space.lambda_min;
+        let form = match (space.basis, &space.table) {
+            (SpectralBasis::PeriodicFourier, _) => EvaluatorForm::Fourier {
+                scale: if span > 0.0 { 2.0 * PI / span } else { 0.0 },
+            },
+            (SpectralBasis::Cosine, _) => EvaluatorForm::Cosine {
+                scale: if span > 0.0 { PI / span } else { 0.0 },
+            },
+            (SpectralBasis::Tabulated, table) => {
+                let table = table
+                    .as_ref()
+                    .expect("validated: a tabulated basis has a table");
+                let w = table.nodes.len();
+                let k = space.terms;
+                let mut values = vec![0.0; w * k];
+                for kk in 0..k {
+                    for ww in 0..w {
+                        values[ww * k + kk] = table.values[kk * w + ww];
+                    }
+                }
+                let n = &table.nodes;
+                let inv_width: Vec<f64> = n.windows(2).map(|p| 1.0 / (p[1] - p[0])).collect();
+                let inv_step = (w > 1).then(|| (w - 1) as f64 / (n[w - 1] - n[0]));
+                EvaluatorForm::Table {
+                    nodes: table.nodes.clone(),
+                    values,
+                    inv_width,
+                    inv_step,
+                }
+            }
+        };
+        SpectrumEvaluator {
+            terms: space.terms,
+            lambda_min: space.lambda_min,
+            lambda_max: space.lambda_max,
+            form,
+        }
+    }
+
+    /// Σ_k c\[k\]·B_k(λ) over the first `c.len()` (≤ K) terms; λ outside the interval is clamped
+    /// as in [`SpectralSpace::eval`]. λ must not be NaN (the decoder answers NaN itself).
+    pub fn dot(&self, c: &[f64], lambda: f64) -> f64 {
+        let c = &c[..c.len().min(self.terms)];
+        match &self.form {
+            EvaluatorForm::Fourier { scale } => {
+                let Some((&c0, rest)) = c.split_first() else {
+                    return 0.0;
+                };
+                let l = lambda.clamp(self.lambda_min, self.lambda_max);
+                let (s1, c1) = (scale * (l - self.lambda_min)).sin_cos();
+                let (mut cj, mut sj) = (1.0, 0.0);
+                let mut sum = 0.5 * c0;
+                for pair in rest.chunks(2) {
+                    (cj, sj) = (cj * c1 - sj * s1, sj * c1 + cj * s1);
+                    sum += pair[0] * cj;
+                    if let Some(b) = pair.get(1) {
+                        sum += b * sj;
+                    }
+                }
+                sum
+            }
+            EvaluatorForm::Cosine { scale } => {
+                let l = lambda.clamp(self.lambda_min, self.lambda_max);
+                let x = (scale * (l - self.lambda_min)).cos();
+                // Chebyshev recurrence: cos(kθ) = 2x·cos((k−1)θ) − cos((k−2)θ).
+                let (mut prev, mut cur) = (x, 1.0); // cos(−θ), cos(0)
+                let mut sum = 0.0;
+                for &ck in c {
+                    sum += ck * cur;
+                    (prev, cur) = (cur, 2.0 * x * cur - prev);
+                }
+                sum
+            }
+            EvaluatorForm::Table {
+                nodes,
+                values,
+                inv_width,
+                inv_step,
+            } => {
+                let k = self.terms;
+                let w = nodes.len();
+                let row = |i: usize| &values[i * k..i * k + c.len()];
+                if w == 1 || lambda <= nodes[0] {
+                    return c.iter().zip(row(0)).map(|(a, b)| a * b).sum();
+                }
+                if lambda >= nodes[w - 1] {
+                    return c.iter().zip(row(w - 1)).map(|(a, b)| a * b).sum();
+                }
+                let guess = inv_step.map(|s| (((lambda - nodes[0]) * s) as usize).min(w - 2));
+                let i = match guess {
+                    Some(g) if nodes[g] <= lambda && lambda < nodes[g + 1] => g,
+                    _ => nodes.partition_point(|&x| x <= lambda) - 1,
+                };
+                let f = (lambda - nodes[i]) * inv_width[i];
+                c.iter()
+                    .zip(row(i).iter().zip(row(i + 1)))
+                    .map(|(a, (v0, v1))| a * (v0 + f * (v1 - v0)))
+                    .sum()
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn space(terms: usize) -> SpectralSpace {
+        SpectralSpace::analytic(SpectralBasis::PeriodicFourier, terms, 400.0, 700.0)
+    }
+
+    #[test]
+    fn codes_round_trip() {
+        for b in [
+            SpectralBasis::PeriodicFourier,
+            SpectralBasis::Cosine,
+            SpectralBasis::Tabulated,
+        ] {
+            assert_eq!(SpectralBasis::from_code(b.code()), Some(b));
+        }
+        assert_eq!(SpectralBasis::from_code(0), None);
+    }
+
+    #[test]
+    fn cosine_basis_values() {
+        let s = SpectralSpace::analytic(SpectralBasis::Cosine, 3, 400.0, 700.0);
+        let mut b = [0.0; 3];
+        s.eval(400.0, &mut b);
+        assert_eq!(b, [1.0, 1.0, 1.0]);
+        s.eval(550.0, &mut b);
+        assert!((b[1]).abs() < 1e-15 && (b[2] + 1.0).abs() < 1e-15);
+        s.eval(700.0, &mut b);
+        assert!((b[1] + 1.0).abs() < 1e-15 && (b[2] - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn tabulated_basis_interpolates_linearly_and_clamps() {
+        let s = SpectralSpace {
+            table: Some(BasisTable {
+                nodes: vec![400.0, 500.0, 700.0],
+                values: vec![1.0, 2.0, 4.0, 0.0, -1.0, 1.0],
+                precision: crate::model::Precision::F32,
+            }),
+            ..SpectralSpace::analytic(SpectralBasis::Tabulated, 2, 400.0, 700.0)
+        };
+        assert!(s.validate().is_ok());
+        let mut b = [0.0; 2];
+        s.eval(450.0, &mut b);
+        assert_eq!(b, [1.5, -0.5]);
+        s.eval(600.0, &mut b);
+        assert_eq!(b, [3.0, 0.0]);
+        s.eval(380.0, &mut b);
+        assert_eq!(b, [1.0, 0.0]);
+        s.eval(900.0, &mut b);
+        assert_eq!(b, [4.0, 1.0]);
+    }
+
+    #[test]
+    fn projection_reproduces_low_harmonics_exactly() {
+        // A spectrum that lies in the span of the first 5 functions is recovered exactly by the
+        // trapezoidal projection on a uniform grid (the rule is exact for periodic trig products).
+        let wl: Vec<f64> = (0..31).map(|i| 400.0 + 10.0 * i as f64).collect();
+        let s = space(5);
+        let truth = [0.8, 0.1, -0.05, 0.02, 0.03];
+        let syn = s.synthesis(&wl);
+        let rho: Vec<f64> = (0..wl.len())
+            .map(|w| (0..5).map(|k| syn[w * 5 + k] * truth[k]).sum())
+            .collect();
+        let proj = s.fourier_projection(&wl);
+        for k in 0..5 {
+            let c: f64 = (0..wl.len()).map(|w| proj[k * wl.len() + w] * rho[w]).sum();
+            assert!((c - truth[k]).abs() < 1e-12, "k={k}: {c}");
+        }
+    }
+
+    #[test]
+    fn single_wavelength() {
+        let s = SpectralSpace::analytic(SpectralBasis::PeriodicFourier, 1, 550.0, 550.0);
+        assert!(s.validate().is_ok());
+        let p = s.fourier_projection(&[550.0]);
+        let mut b = [0.0];
+        s.eval(550.0, &mut b);
+        assert_eq!(p[0] * 0.7 * b[0], 0.7);
+        let bad = SpectralSpace { terms: 3, ..s };
+        assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn queries_outside_the_interval_clamp() {
+        let s = space(5);
+        let (mut a, mut b) = ([0.0; 5], [0.0; 5]);
+        s.eval(750.0, &mut a);
+        s.eval(700.0, &mut b);
+        assert_eq!(a, b);
+    }
+    #[test]
+    fn evaluator_agrees_with_the_basis_functions() {
+        let table = BasisTable {
+            nodes: vec![400.0, 410.0, 420.0, 430.0, 450.0, 700.0],
+            values: (0..18)
+                .map(|i| ((i * 7919) % 13) as f64 / 13.0 - 0.4)
+                .collect(),
+            precision: crate::model::Precision::F32,
+        };
+        let uniform = BasisTable {
+            nodes: (0..31).map(|i| 400.0 + 10.0 * i as f64).collect(),
+            values: (0..93)
+                .map(|i| ((i * 104729) % 17) as f64 / 17.0 - 0.3)
+                .collect(),
+            precision: crate::model::Precision::F32,
+        };
+        let spaces = [
+            SpectralSpace::analytic(SpectralBasis::PeriodicFourier, 13, 400.0, 700.0),
+            SpectralSpace::analytic(SpectralBasis::PeriodicFourier, 1, 550.0, 550.0),
+            SpectralSpace::analytic(SpectralBasis::Cosine, 40, 395.0, 705.0),
+            SpectralSpace::analytic(SpectralBasis::Cosine, 1, 550.0, 550.0),
+            SpectralSpace {
+                table: Some(table),
+                ..SpectralSpace::analytic(SpectralBasis::Tabulated, 3, 400.0, 700.0)
+            },
+            SpectralSpace {
+                table: Some(uniform),
+                ..SpectralSpace::analytic(SpectralBasis::Tabulated, 3, 400.0, 700.0)
+            },
+        ];
+        for s in &spaces {
+            assert!(s.validate().is_ok());
+            let ev = SpectrumEvaluator::new(s);
+            let c: Vec<f64> = (0..s.terms).map(|k| 1.0 / (k as f64 + 1.0)).collect();
+            let mut b = vec![0.0; s.terms];
+            for l in [
+                300.0, 395.0, 400.0, 404.9, 410.0, 449.99, 523.7, 550.0, 699.9, 700.0, 800.0,
+            ] {
+                for used in [1, s.terms] {
+                    s.eval(l, &mut b);
+                    let direct: f64 = c[..used].iter().zip(&b).map(|(x, y)| x * y).sum();
+                    let fast = ev.dot(&c[..used], l);
+                    assert!(
+                        (fast - direct).abs() <= 1e-12 * (1.0 + direct.abs()),
+                        "{:?} K={} λ={l} used={used}: {fast} vs {direct}",
+                        s.basis,
+                        s.terms
+                    );
+                }
+            }
+        }
+    }
+}
