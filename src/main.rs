@@ -33,20 +33,26 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Fit sampled BRDFs (CSV) and write an .sbrdf file.
+    /// Fit sampled BRDFs (CSV, spectral-EXR slices, ASTM E1392 text) and write an .sbrdf file.
     #[command(
         after_help = "CSV layouts (found by header name; '#' lines are comments):\n  \
 long: theta_i,phi_i,theta_o,phi_o,wavelength_nm,value   (one sample a row)\n  \
 wide: theta_i,phi_i,theta_o,phi_o,400,410,...           (one column per wavelength; '400nm' works too)\n\n\
+Other inputs: spectral-EXR slices (.exr, or a folder of them) and ASTM E1392 text (.astm: keyword \
+lines, NUM_POINTS, VARS theta_i,phi_i,theta_s,phi_s,400nm,...; angles in radians unless \
+ANGLE_UNITS DEGREES); the ASTM header is kept in the file's metadata.\n\n\
 Examples:\n  sbrdf encode material.csv -o material.sbrdf\n  \
 sbrdf encode ti*.csv -o m.sbrdf --sh-level 2 --precision f16 --metadata source=lab42\n  \
-sbrdf encode material.csv -o direct.sbrdf --peak none --sh-level 4"
+sbrdf encode material.csv -o direct.sbrdf --peak none --sh-level 4\n  \
+sbrdf encode acryl_blue.astm -o acryl.sbrdf"
     )]
     Encode(encode::EncodeArgs),
-    /// Write the reconstruction as CSV, at a reference file's positions or at the encoder's.
+    /// Write the reconstruction as CSV, EXR slices or ASTM text, at a reference file's positions
+    /// or at the encoder's.
     #[command(
         after_help = "Examples:\n  sbrdf decode m.sbrdf -o back.csv --like material.csv\n  \
-sbrdf decode m.sbrdf -o back.csv        (at the sample positions the encoder saw, wide layout)"
+sbrdf decode m.sbrdf -o back.csv        (at the sample positions the encoder saw, wide layout)\n  \
+sbrdf decode m.sbrdf -o back.astm --astm   (ASTM E1392 text, with the source file's header)"
     )]
     Decode(decode::DecodeArgs),
     /// Print the spectrum at one pair of directions as CSV `wavelength_nm,value`.

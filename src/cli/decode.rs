@@ -1,9 +1,10 @@
 //! `sbrdf decode`: the reconstruction written as CSV (at a reference's rows or at the positions
-//! the encoder saw) or as spectral-EXR slices.
+//! the encoder saw), as spectral-EXR slices, or as ASTM E1392 text.
 
 use super::parse::parse_resolution;
 use clap::{Args, ValueEnum};
 use sbrdf::encode::samples::{IncidentSamples, SampleSet};
+use sbrdf::io::astm;
 use sbrdf::io::csv::{self as csv_io, Layout};
 use sbrdf::io::exr;
 use sbrdf::io::output::{ensure_output_folder, write_atomic, write_bytes_atomic};
@@ -17,9 +18,14 @@ pub struct DecodeArgs {
     /// Output CSV file; with --exr, the folder for the slices (created if its parent exists).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Reference CSV: write values at exactly its rows, in its layout.
+    /// Reference: write values at exactly its rows, in its layout (CSV); with --astm, any
+    /// input (CSV, EXR, ASTM) whose positions and wavelengths to use.
     #[arg(long, value_name = "REF", conflicts_with = "exr")]
     pub like: Option<PathBuf>,
+    /// Write ASTM E1392 text (angles in radians, one column per wavelength), headed by the
+    /// keyword lines of the ASTM file the material was encoded from (kept in its metadata).
+    #[arg(long, conflicts_with = "exr")]
+    pub astm: bool,
     /// Write one spectral EXR per stored incident direction (channels T.<λ>nm; pixel (i, j) is
     /// θo = (i + ½)·90°/H, φo = (j + ½)·360°/W), named <stem>_ti<θ>_pi<φ>.exr.
     #[arg(long)]
@@ -44,52 +50,35 @@ pub fn cmd_decode(a: DecodeArgs) -> Result<()> {
     if a.exr {
         return decode_exr(&dec, &a);
     }
+    if a.astm {
+        let m = dec.material();
+        let set = match &a.like {
+            Some(reference) => {
+                let (like, _) = sbrdf::io::read_inputs(std::slice::from_ref(reference))?;
+                decode_at(
+                    &dec,
+                    &like.wavelengths,
+                    like.incidences
+                        .iter()
+                        .map(|s| ((s.theta_i, s.phi_i), s.directions.clone())),
+                )
+            }
+            None => decode_at_stored(&dec, &a.input)?,
+        };
+        let (mut header, turned) = astm::header_from_metadata(m.metadata.as_deref());
+        if header.is_empty() {
+            header.push(format!(
+                "COMMENTS decoded by sbrdf {} from {}",
+                env!("CARGO_PKG_VERSION"),
+                a.input.display()
+            ));
+        }
+        return write_atomic(&a.output, |w| astm::write_astm(&set, &header, turned, w));
+    }
     match &a.like {
         Some(reference) => decode_like(&dec, reference, &a.output),
         None => {
-            let m = dec.material();
-            let sp = m.sample_positions.as_ref().ok_or_else(|| {
-                Error::Parameter(format!(
-                    "{} stores no sample positions (encoded with --no-sample-positions): \
-                     give --like REF to name the positions",
-                    a.input.display()
-                ))
-            })?;
-            let total: u64 = sp
-                .set_of_incidence
-                .iter()
-                .map(|&i| sp.sets[i as usize].len() as u64)
-                .sum();
-            if total > 1 << 26 {
-                return Err(Error::LimitsExceeded(format!(
-                    "{} lists {total} sample positions, more than this command writes; \
-                     give --like REF to choose the positions",
-                    a.input.display()
-                )));
-            }
-            let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
-            let mut set = SampleSet {
-                wavelengths: wl.clone(),
-                incidences: Vec::new(),
-            };
-            for (i, r) in m.records.iter().enumerate() {
-                let dirs = sp.sets[sp.set_of_incidence[i] as usize].directions();
-                let mut values = vec![0.0; dirs.len() * wl.len()];
-                for (d, dir) in dirs.iter().enumerate() {
-                    dec.eval_deg(
-                        (r.theta_i as f64, r.phi_i as f64),
-                        (dir[0], dir[1]),
-                        &wl,
-                        &mut values[d * wl.len()..(d + 1) * wl.len()],
-                    );
-                }
-                set.incidences.push(IncidentSamples {
-                    theta_i: r.theta_i as f64,
-                    phi_i: r.phi_i as f64,
-                    directions: dirs,
-                    values,
-                });
-            }
+            let set = decode_at_stored(&dec, &a.input)?;
             let note = format!(
                 "decoded by sbrdf {} from {}",
                 env!("CARGO_PKG_VERSION"),
@@ -98,6 +87,64 @@ pub fn cmd_decode(a: DecodeArgs) -> Result<()> {
             write_atomic(&a.output, |w| csv_io::write_wide(&set, w, Some(&note)))
         }
     }
+}
+
+/// The decoded values at the file's stored sample positions and wavelengths.
+fn decode_at_stored(dec: &Decoder, input: &Path) -> Result<SampleSet> {
+    let m = dec.material();
+    let sp = m.sample_positions.as_ref().ok_or_else(|| {
+        Error::Parameter(format!(
+            "{} stores no sample positions (encoded with --no-sample-positions): \
+             give --like REF to name the positions",
+            input.display()
+        ))
+    })?;
+    let total: u64 = sp
+        .set_of_incidence
+        .iter()
+        .map(|&i| sp.sets[i as usize].len() as u64)
+        .sum();
+    if total > 1 << 26 {
+        return Err(Error::LimitsExceeded(format!(
+            "{} lists {total} sample positions, more than this command writes; \
+             give --like REF to choose the positions",
+            input.display()
+        )));
+    }
+    let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
+    Ok(decode_at(
+        dec,
+        &wl,
+        m.records.iter().enumerate().map(|(i, r)| {
+            let dirs = sp.sets[sp.set_of_incidence[i] as usize].directions();
+            ((r.theta_i as f64, r.phi_i as f64), dirs)
+        }),
+    ))
+}
+
+/// The decoded values at each incidence's outgoing directions, at `wl`.
+fn decode_at(
+    dec: &Decoder,
+    wl: &[f64],
+    positions: impl Iterator<Item = ((f64, f64), Vec<[f64; 2]>)>,
+) -> SampleSet {
+    let mut set = SampleSet {
+        wavelengths: wl.to_vec(),
+        incidences: Vec::new(),
+    };
+    for ((ti, pi), dirs) in positions {
+        let mut values = vec![0.0; dirs.len() * wl.len()];
+        for (dir, out) in dirs.iter().zip(values.chunks_mut(wl.len().max(1))) {
+            dec.eval_deg((ti, pi), (dir[0], dir[1]), wl, out);
+        }
+        set.incidences.push(IncidentSamples {
+            theta_i: ti,
+            phi_i: pi,
+            directions: dirs,
+            values,
+        });
+    }
+    set
 }
 
 /// The stored sample grid of record `i` as (rows, columns) when it is an EXR pixel grid.

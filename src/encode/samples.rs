@@ -151,4 +151,9 @@ pub struct ReadReport {
     pub negative_values: usize,
     /// EXR pixels skipped as not measured (NaN or mask 0).
     pub missing_pixels: usize,
+    /// What the files said about themselves that the encoded file should keep (ASTM header
+    /// keywords as `astm.KEY`), appended to the metadata's provenance after `--metadata`.
+    pub provenance: Vec<(String, String)>,
+    /// Decisions a reader took that the user should hear about, one line each.
+    pub notes: Vec<String>,
 }

@@ -234,7 +234,7 @@ pub fn encode_samples(
     } else {
         set
     };
-    let mut messages = Vec::new();
+    let mut messages: Vec<String> = report.notes.iter().map(|n| format!("note: {n}")).collect();
     if report.missing_pixels > 0 {
         messages.push(format!(
             "note: {} EXR pixels marked missing (NaN or mask 0) were skipped",
@@ -248,7 +248,8 @@ pub fn encode_samples(
             set.sample_count()
         ));
     }
-    let opts = s.options(inputs);
+    let mut opts = s.options(inputs);
+    opts.provenance.extend(report.provenance.iter().cloned());
     let encoded = encode(&set, &opts)?;
     messages.extend(encoded.notes.iter().map(|n| format!("note: {n}")));
     if !encoded.unmet.is_empty() {

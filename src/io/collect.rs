@@ -139,7 +139,7 @@ pub(crate) fn build_sample_set(
     }
     let report = ReadReport {
         negative_values: samples.iter().filter(|s| s.value < 0.0).count(),
-        missing_pixels: 0,
+        ..ReadReport::default()
     };
     // Split into directions (runs of equal 4-angle keys).
     let mut reference: Option<(Vec<u64>, usize)> = None;

@@ -4,6 +4,7 @@
 
 use crate::encode::samples::{ReadReport, SampleSet};
 use crate::error::{Error, Result};
+use crate::io::astm::{collect_astm, looks_like_astm};
 use crate::io::collect::build_sample_set;
 use crate::io::csv::collect_csv;
 use crate::io::exr::collect_exr;
@@ -25,13 +26,15 @@ pub fn expand_inputs(paths: &[impl AsRef<Path>]) -> Result<Vec<PathBuf>> {
                 .filter(|f| {
                     f.is_file()
                         && f.extension().and_then(|x| x.to_str()).is_some_and(|x| {
-                            x.eq_ignore_ascii_case("exr") || x.eq_ignore_ascii_case("csv")
+                            ["exr", "csv", "astm"]
+                                .iter()
+                                .any(|k| x.eq_ignore_ascii_case(k))
                         })
                 })
                 .collect();
             if found.is_empty() {
                 return Err(Error::Input(format!(
-                    "{}: the folder holds no .exr or .csv files",
+                    "{}: the folder holds no .exr, .csv or .astm files",
                     p.display()
                 )));
             }
@@ -55,19 +58,27 @@ pub fn read_inputs(paths: &[impl AsRef<Path>]) -> Result<(SampleSet, ReadReport)
 }
 
 /// [`read_inputs`] over (name, bytes) pairs held in memory. A file is read as EXR when it
-/// starts with the OpenEXR magic number, as CSV otherwise.
+/// starts with the OpenEXR magic number, as ASTM E1392 text when it is named `.astm` or its
+/// keyword lines lead to `VARS`, as CSV otherwise.
 pub fn read_inputs_from_bytes(files: &[(String, Vec<u8>)]) -> Result<(SampleSet, ReadReport)> {
     let names: Vec<String> = files.iter().map(|f| f.0.clone()).collect();
     let mut samples = Vec::new();
-    let mut missing = 0;
+    let mut found = ReadReport::default();
     for (fi, (name, bytes)) in files.iter().enumerate() {
         if bytes.starts_with(&EXR_MAGIC) {
-            missing += collect_exr(fi, name, bytes, &mut samples)?;
+            found.missing_pixels += collect_exr(fi, name, bytes, &mut samples)?;
+        } else if looks_like_astm(name, bytes) {
+            collect_astm(fi, name, bytes, &mut samples, &mut found)?;
         } else {
             collect_csv(fi, name, bytes, &mut samples)?;
         }
     }
-    let (set, mut report) = build_sample_set(samples, &names)?;
-    report.missing_pixels = missing;
-    Ok((set, report))
+    let (set, report) = build_sample_set(samples, &names)?;
+    Ok((
+        set,
+        ReadReport {
+            negative_values: report.negative_values,
+            ..found
+        },
+    ))
 }

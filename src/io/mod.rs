@@ -1,7 +1,9 @@
-//! Files in and out (feature `cli`): the readers of sampled BRDFs (CSV, spectral-EXR slices)
+//! Files in and out (feature `cli`): the readers of sampled BRDFs (CSV, spectral-EXR slices,
+//! ASTM E1392 text)
 //! behind one sample collector, the CSV and EXR writers, atomic output, and the synthetic test
 //! materials. Uses the encoder and everything below it.
 
+pub mod astm;
 pub mod collect;
 pub mod csv;
 pub mod exr;
