@@ -50,12 +50,19 @@ pub enum PrecisionArg {
 #[derive(Args)]
 pub struct EncodeArgs {
     /// Inputs: CSV files (long or wide layout), spectral-EXR slices (one per incident
-    /// direction), or folders of them; all are merged.
+    /// direction), ASTM E1392 text, or folders of them; all are merged.
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
     /// Output .sbrdf file (written atomically).
     #[arg(short, long)]
     pub output: PathBuf,
+    #[command(flatten)]
+    pub options: EncodeOptionArgs,
+}
+
+/// The encoder's options, as `encode`, `validate` and the other commands that encode take them.
+#[derive(Args)]
+pub struct EncodeOptionArgs {
     /// Spectral basis.
     #[arg(long, value_enum, default_value = "data")]
     pub basis: BasisArg,
@@ -108,59 +115,68 @@ pub struct EncodeArgs {
     pub incident_max: Option<f64>,
 }
 
+impl EncodeOptionArgs {
+    /// The library's option set for these flags.
+    pub fn settings(&self) -> Result<EncodeSettings> {
+        let a = self;
+        let encoder = EncodeOptions {
+            basis: match a.basis {
+                BasisArg::Fourier => SpectralBasis::PeriodicFourier,
+                BasisArg::Cosine => SpectralBasis::Cosine,
+                BasisArg::Data => SpectralBasis::Tabulated,
+            },
+            terms: a.terms,
+            sh_level: a.sh_level,
+            peak: match a.peak {
+                PeakArg::Paper => PeakMode::Paper,
+                PeakArg::None => PeakMode::None,
+                PeakArg::Joint => PeakMode::Joint,
+            },
+            critical_angle: settings::parse_critical_angle(&a.critical_angle)?,
+            precision: match a.precision {
+                PrecisionArg::F32 => Precision::F32,
+                PrecisionArg::F16 => Precision::F16,
+            },
+            lobes: a
+                .lobes
+                .iter()
+                .map(|l| match l {
+                    LobeArg::Gaussian => LobeFamily::Gaussian,
+                    LobeArg::CosinePower => LobeFamily::CosinePower,
+                    LobeArg::Microfacet => LobeFamily::Microfacet,
+                    LobeArg::MicrofacetSin2 => LobeFamily::MicrofacetSin2,
+                })
+                .collect(),
+            sample_positions: !a.no_sample_positions,
+            provenance: a
+                .metadata
+                .iter()
+                .map(|kv| settings::parse_metadata(kv))
+                .collect::<Result<_>>()?,
+            // Resolved by EncodeSettings::options.
+            ..EncodeOptions::default()
+        };
+        let settings = EncodeSettings {
+            encoder,
+            max_error: a
+                .max_error
+                .as_deref()
+                .map(|e| settings::parse_fraction("max-error", e))
+                .transpose()?,
+            best_effort: a.best_effort,
+            wavelengths: a
+                .wavelengths
+                .as_deref()
+                .map(|w| settings::parse_window("wavelengths", w))
+                .transpose()?,
+            incident_max: a.incident_max,
+        };
+        Ok(settings)
+    }
+}
+
 pub fn cmd_encode(a: EncodeArgs) -> Result<()> {
-    let encoder = EncodeOptions {
-        basis: match a.basis {
-            BasisArg::Fourier => SpectralBasis::PeriodicFourier,
-            BasisArg::Cosine => SpectralBasis::Cosine,
-            BasisArg::Data => SpectralBasis::Tabulated,
-        },
-        terms: a.terms,
-        sh_level: a.sh_level,
-        peak: match a.peak {
-            PeakArg::Paper => PeakMode::Paper,
-            PeakArg::None => PeakMode::None,
-            PeakArg::Joint => PeakMode::Joint,
-        },
-        critical_angle: settings::parse_critical_angle(&a.critical_angle)?,
-        precision: match a.precision {
-            PrecisionArg::F32 => Precision::F32,
-            PrecisionArg::F16 => Precision::F16,
-        },
-        lobes: a
-            .lobes
-            .iter()
-            .map(|l| match l {
-                LobeArg::Gaussian => LobeFamily::Gaussian,
-                LobeArg::CosinePower => LobeFamily::CosinePower,
-                LobeArg::Microfacet => LobeFamily::Microfacet,
-                LobeArg::MicrofacetSin2 => LobeFamily::MicrofacetSin2,
-            })
-            .collect(),
-        sample_positions: !a.no_sample_positions,
-        provenance: a
-            .metadata
-            .iter()
-            .map(|kv| settings::parse_metadata(kv))
-            .collect::<Result<_>>()?,
-        // Resolved by EncodeSettings::options.
-        ..EncodeOptions::default()
-    };
-    let settings = EncodeSettings {
-        encoder,
-        max_error: a
-            .max_error
-            .as_deref()
-            .map(|e| settings::parse_fraction("max-error", e))
-            .transpose()?,
-        best_effort: a.best_effort,
-        wavelengths: a
-            .wavelengths
-            .as_deref()
-            .map(|w| settings::parse_window("wavelengths", w))
-            .transpose()?,
-        incident_max: a.incident_max,
-    };
+    let settings = a.options.settings()?;
     let (set, report) = sbrdf::io::read_inputs(&a.inputs)?;
     let inputs: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
     let outcome = settings::encode_samples(set, &report, &inputs, &settings)?;

@@ -9,3 +9,4 @@ pub mod parse;
 pub mod subset;
 pub mod synth;
 pub mod tradeoff;
+pub mod validate;

@@ -10,6 +10,7 @@ pub mod info;
 pub mod samples;
 pub mod settings;
 pub mod subset;
+pub mod validate;
 
 pub use encoder::{encode, EncodeOptions, Encoded};
 pub use samples::{IncidentSamples, SampleSet};

@@ -566,7 +566,10 @@ VARS theta_i,phi_i,theta_s,phi_s,400nm,500nm\n\n\
         assert_eq!(f.rows.len(), 3);
         assert!((f.rows[0].angles[0] - 28.6479).abs() < 1e-3);
         assert_eq!(radians_to_degrees("0.174533", 0.174533), 10.0);
-        assert_eq!(radians_to_degrees("3.141593", "3.141593".parse().unwrap()), 180.0);
+        assert_eq!(
+            radians_to_degrees("3.141593", "3.141593".parse().unwrap()),
+            180.0
+        );
         assert_eq!(radians_to_degrees("-0.261799", -0.261799), -15.0);
         assert_eq!(radians_to_degrees("0.5", 0.5), 0.5f64.to_degrees());
         assert!((f.rows[2].angles[3] - (360.0 - 57.2958)).abs() < 1e-3);

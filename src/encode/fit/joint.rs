@@ -293,6 +293,15 @@ fn fit_level(inc: &Incidence, level: usize, lobe: Option<(LobeFamily, Vec<f64>)>
 }
 
 impl LevelFit {
+    /// True when every value of the full-size record is finite in f32.
+    fn storable(&self, inc: &Incidence, s: &IncidentSamples, r: usize) -> bool {
+        let rec = self.record(inc, s, r);
+        rec.sh
+            .iter()
+            .chain(rec.lobes.iter().flat_map(|l| l.amplitude.iter()))
+            .all(|v| v.is_finite())
+    }
+
     /// Predicted squared error with the first `r` spectral terms.
     fn sq_error(&self, inc: &Incidence, r: usize) -> f64 {
         let kept: f64 = self.resid[..r].iter().sum();
@@ -416,6 +425,13 @@ pub fn fit_joint(
             let shape = if level * 2 < lo + hi { at_lo } else { at_hi };
             fits.push(fit_level(&inc, level, Some((*fam, shape.clone()))));
         }
+    }
+    // A lobe narrower than the sampling can sit between the samples, where its column is ~0:
+    // least squares then gives it an amplitude beyond f32 (invisible at the samples, infinite
+    // between them). Such a fit cannot be stored and is not a candidate.
+    fits.retain(|f| f.storable(&inc, s, k));
+    if fits.is_empty() {
+        fits.push(fit_level(&inc, 0, None));
     }
     let finish = |mut record: IncidentRecord, precision: Precision| {
         if precision == Precision::F16 {

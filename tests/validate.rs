@@ -1,0 +1,77 @@
+//! `sbrdf validate`: the held-out protocol itself, on a material whose answer is known.
+
+mod common;
+use common::{sbrdf, stderr};
+use sbrdf::encode::validate::{validate, ValidateOptions};
+use sbrdf::encode::EncodeOptions;
+use sbrdf::io::synth::{paper_grid, sample_material, Phong};
+
+fn phong_set(thetas: &[f64]) -> sbrdf::encode::SampleSet {
+    let wl: Vec<f64> = (0..16).map(|i| 400.0 + 20.0 * i as f64).collect();
+    let p = Phong::colorchecker("green", "white", (1.0, 2.0, 8.0), &wl).unwrap();
+    let inc: Vec<(f64, f64)> = thetas.iter().map(|&t| (t, 0.0)).collect();
+    sample_material(&wl, &inc, &paper_grid(10.0, 15.0), |i, o, w| {
+        p.value(i, o, w)
+    })
+}
+
+#[test]
+fn held_out_errors_follow_the_protocol() {
+    // A broad Phong lobe the encoder's families hold exactly: held-out samples are predicted
+    // almost as well as fitted ones, and an incidence between two stored ones is interpolated.
+    let set = phong_set(&[20.0, 30.0, 40.0]);
+    let v = ValidateOptions {
+        folds: 4,
+        leave_incidence_out: true,
+    };
+    let r = validate(&set, &EncodeOptions::default(), &v).unwrap();
+    assert_eq!(r.incidences.len(), 3);
+    let n: usize = set.incidences.iter().map(|s| s.values.len()).sum();
+    assert_eq!(r.fit.count, n, "fit: every value once");
+    assert_eq!(
+        r.folds.unwrap().count,
+        n,
+        "folds: every value held out exactly once"
+    );
+    assert_eq!(r.left_out.unwrap().count, n);
+    assert!(r.fit.rel() < 0.006, "fit {}", r.fit.rel());
+    let folds = r.folds.unwrap();
+    assert!(
+        folds.rel() < 0.02 && folds.rel() >= r.fit.rel() * 0.5,
+        "folds {}",
+        folds.rel()
+    );
+    // 30° left out lies between 20° and 40°: interpolated; 20° and 40° are extrapolated.
+    let mid = r.incidences[1].left_out.unwrap();
+    assert!(mid.rel() < 0.1, "30° left out: {}", mid.rel());
+    assert!(r.epsilon > 0.0 && r.bytes > 0);
+}
+
+#[test]
+fn validate_runs_through_the_program() {
+    let dir = tempfile::tempdir().unwrap();
+    let set = phong_set(&[10.0, 50.0]);
+    let f = std::fs::File::create(dir.path().join("m.csv")).unwrap();
+    sbrdf::io::csv::write_wide(&set, f, None).unwrap();
+    let o = sbrdf(
+        &[
+            "validate",
+            "m.csv",
+            "--folds",
+            "3",
+            "--leave-incidence-out",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["incidences"].as_array().unwrap().len(), 2);
+    for key in ["fit", "folds_error", "left_out"] {
+        let rel = v[key]["rel"].as_f64().unwrap();
+        assert!(rel.is_finite() && rel >= 0.0, "{key}: {rel}");
+    }
+    let o = sbrdf(&["validate", "m.csv", "--folds", "1"], dir.path());
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--folds 1"), "{}", stderr(&o));
+}
