@@ -170,7 +170,8 @@ impl Material {
     /// The description `sbrdf info --json` prints, as a dict.
     #[getter]
     fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let text = sbrdf::encode::info::to_json(self.dec.material(), &self.name, self.bytes).to_string();
+        let text =
+            sbrdf::encode::info::to_json(self.dec.material(), &self.name, self.bytes).to_string();
         py.import("json")?.call_method1("loads", (text,))
     }
 
