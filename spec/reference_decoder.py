@@ -1,5 +1,9 @@
 #!/usr/bin/env python3
-"""Independent reference reader and decoder of the .sbrdf format, version 1.0.
+"""Independent reference reader and decoder of the .sbrdf format, version 1.1.
+
+Version 1.1 adds the critical `FACT` chunk (the factor model, §3.7, EVALUATION.md "Factor
+model") and the ancillary `xval` chunk (held-out errors, §3.8) to version 1.0; files without
+them (every 1.0 file) are read and evaluated exactly as before.
 
 Written from spec/FORMAT.md and spec/EVALUATION.md alone, without looking at the Rust
 implementation, to show that those two documents are enough to decode a file. Standard library
@@ -32,6 +36,20 @@ import zlib
 SIGNATURE = b"\x89SBRDF\r\n\x1a\n"
 MAX_FILE_BYTES = 256 * 1024 * 1024  # §8: the reference reader's default size limit
 MAX_SET_DIRECTIONS = 1 << 22
+
+# EVALUATION.md, "Factor model", Tables: the fixed nodes of each FACT feature code (§4).
+FACT_THETA_I_NODES = (0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 75.0, 80.0, 85.0, 88.0)
+FACT_X_NODES = tuple(-1.0 + 0.25 * i for i in range(9))
+FACT_NODES = {
+    1: (0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.5, 8.0, 10.0, 13.0, 16.0, 20.0,
+        25.0, 30.0, 40.0, 50.0, 60.0, 75.0, 90.0),  # θh
+    2: tuple(10.0 * i for i in range(10)),  # θd
+    3: FACT_THETA_I_NODES,  # θi, in 1/cos θi
+    4: FACT_THETA_I_NODES,  # θo, in 1/cos θo
+    5: FACT_X_NODES,  # x
+}
+FACT_6_THETA_NODES = (0.0, 20.0, 40.0, 60.0, 70.0, 80.0, 88.0)  # code 6: θi axis (× x axis)
+FACT_NODE_COUNT = {1: 23, 2: 10, 3: 12, 4: 12, 5: 9, 6: 63}  # n(k), §3.7
 
 
 class Refused(Exception):
@@ -187,6 +205,63 @@ def lobe_add(coef, lobe, peak, wi, w):
                 coef[k] += q * var[j]
 
 
+# ---------------------------------------------------------------- factor model (1.1)
+
+def inv_cos_deg(v):
+    """U of feature codes 3 and 4 (and of code 6's θi axis): 1/cos(min(max(v, 0), 88)°)."""
+    return 1.0 / math.cos(math.radians(min(max(v, 0.0), 88.0)))
+
+
+def table_pos(nodes, v, u=None):
+    """"Factor model", Tables: (j, a) of v on the nodes, linear in U (u; None: U(v) = v)."""
+    m = len(nodes)
+    v = min(max(v, nodes[0]), nodes[-1])
+    j = min(bisect.bisect_right(nodes, v) - 1, m - 2)  # the largest j with n_j <= v, <= m-2
+    if u is None:
+        a = (v - nodes[j]) / (nodes[j + 1] - nodes[j])
+    else:
+        a = (u(v) - u(nodes[j])) / (u(nodes[j + 1]) - u(nodes[j]))
+    return j, min(max(a, 0.0), 1.0)
+
+
+def table_value(code, t, feat):
+    """t(u_f) of one table t of feature code `code`; feat = the clamped (θh, θd, θi, θo, x)."""
+    if code == 6:  # (θi, x), bilinear; value at (θi-node p, x-node q) at index 9p + q
+        j, a = table_pos(FACT_6_THETA_NODES, feat[2], inv_cos_deg)
+        i, b = table_pos(FACT_X_NODES, feat[4])
+        return ((1 - a) * (1 - b) * t[9 * j + i] + (1 - a) * b * t[9 * j + i + 1]
+                + a * (1 - b) * t[9 * (j + 1) + i] + a * b * t[9 * (j + 1) + i + 1])
+    j, a = table_pos(FACT_NODES[code], feat[code - 1], inv_cos_deg if code in (3, 4) else None)
+    return (1 - a) * t[j] + a * t[j + 1]
+
+
+def fact_features(wi, wo, ranges):
+    """"Factor model", Features: (θh, θd, θi, θo, x) of unit vectors wi, wo (z >= 0), each
+    clamped to its stored range (a NaN becomes the range's minimum)."""
+    xi, yi, zi = wi
+    xo, yo, zo = wo
+    ri = math.sqrt(xi * xi + yi * yi)
+    c, s = (xi / ri, yi / ri) if ri > 0 else (1.0, 0.0)
+    wi2 = (ri, 0.0, zi)  # ωi turned about z to azimuth 0, ωo with it
+    wo2 = (c * xo + s * yo, -s * xo + c * yo, zo)
+    m = (wi2[0] + wo2[0], wi2[1] + wo2[1], wi2[2] + wo2[2])
+    mn = math.sqrt(dot(m, m))
+    if mn > 0:
+        h = (m[0] / mn, m[1] / mn, m[2] / mn)
+        theta_h = math.degrees(math.atan2(math.sqrt(h[0] * h[0] + h[1] * h[1]), h[2]))
+        cx = (wi2[1] * h[2] - wi2[2] * h[1], wi2[2] * h[0] - wi2[0] * h[2],
+              wi2[0] * h[1] - wi2[1] * h[0])
+        theta_d = math.degrees(math.atan2(math.sqrt(dot(cx, cx)), dot(wi2, h)))
+    else:
+        theta_h = theta_d = 90.0
+    theta_i = math.degrees(math.atan2(ri, zi))
+    theta_o = math.degrees(math.atan2(math.sqrt(wo2[0] * wo2[0] + wo2[1] * wo2[1]), wo2[2]))
+    out = []
+    for v, (lo, hi) in zip((theta_h, theta_d, theta_i, theta_o, wo2[0]), ranges):
+        out.append(lo if math.isnan(v) else min(max(v, lo), hi))
+    return out
+
+
 # ---------------------------------------------------------------- the file
 
 class Record:
@@ -210,7 +285,9 @@ class SbrdfFile:
         self.head = None
         self.basis_values = None
         self.records = []
-        seen_meta = seen_samp = False
+        self.fact = None  # the factor model (§3.7), when the file has a FACT chunk
+        self.xval = None  # held-out errors (§3.8), when kept
+        seen_meta = seen_samp = seen_xval = False
         while pos < len(data):
             if seen_endf:
                 raise malformed("bytes after ENDF at offset %d (§2.5)" % pos)
@@ -240,6 +317,18 @@ class SbrdfFile:
                 if self.basis != 3 or self.basis_values is not None or self.records:
                     raise malformed("%s: SBAS out of place (§2.5)" % where)
                 self.parse_sbas(body, where)
+            elif ctype == b"FACT":
+                # §2.5 rule 5: at most once, after HEAD (and SBAS), before the first RECD;
+                # §3.7: only in an isotropic file
+                if self.fact is not None:
+                    raise malformed("%s: second FACT chunk (§2.5)" % where)
+                if self.records:
+                    raise malformed("%s: FACT after a RECD (§2.5)" % where)
+                if self.basis == 3 and self.basis_values is None:
+                    raise malformed("%s: FACT before SBAS (§2.5)" % where)
+                if not self.isotropic:
+                    raise malformed("%s: FACT in a file without the isotropic flag (§3.7)" % where)
+                self.fact = self.parse_fact(body, where)
             elif ctype == b"RECD":
                 if self.basis == 3 and self.basis_values is None:
                     raise malformed("%s: RECD before SBAS (§2.5)" % where)
@@ -259,6 +348,11 @@ class SbrdfFile:
                     raise malformed("%s: second samp chunk (§2.5)" % where)
                 seen_samp = True
                 self.parse_samp(body, where)
+            elif ctype == b"xval":
+                if seen_xval:
+                    raise malformed("%s: second xval chunk (§2.5)" % where)
+                seen_xval = True  # a skipped xval still counts as the file's one (§2.5, §3.8)
+                self.parse_xval(body, where)
             elif ctype == b"ENDF":
                 if length != 0:
                     raise malformed("%s: ENDF must be empty (§3.6)" % where)
@@ -452,6 +546,93 @@ class SbrdfFile:
         if any(i >= count for i in idx):
             raise malformed("%s: set index >= set_count (§3.5)" % where)
 
+    def parse_fact(self, body, where):
+        """§3.7: the factor model, as [(codes, spectra, tables)] per component, where
+        spectra = [s_c, w_c1, …, w_c(R-1)] (W values each) and tables[r][f] the table of
+        feature codes[f] at rank r. Placement is checked by the caller (§2.5)."""
+        r = Reader(body, where)
+        if len(body) < 44:
+            raise malformed("%s: shorter than its 44-byte fixed part (§3.7)" % where)
+        count, prec, reserved = r.take("BBH")
+        if prec not in (1, 2):
+            raise unsupported("%s: unknown precision %d (§4)" % (where, prec))
+        if reserved:
+            raise malformed("%s: non-zero reserved byte (§3.7)" % where)
+        if not 1 <= count <= 8:
+            raise malformed("%s: component_count %d out of range (§3.7)" % (where, count))
+        rng = r.take("10f", "ranges")
+        ranges = [(rng[2 * i], rng[2 * i + 1]) for i in range(5)]
+        descriptors = []
+        for c in range(count):
+            rank, nfeat = r.take("BB", "component descriptor")
+            if not (1 <= rank <= 8 and 1 <= nfeat <= 6):
+                raise malformed("%s: component %d: rank %d or feature_count %d out of range (§3.7)"
+                                % (where, c, rank, nfeat))
+            codes = r.take("%dB" % nfeat, "feature codes")
+            for code in codes:
+                if code not in FACT_NODE_COUNT:
+                    raise unsupported("%s: component %d: unknown feature code %d (§4)"
+                                      % (where, c, code))
+            if len(set(codes)) != nfeat:
+                raise malformed("%s: component %d: a feature repeated (§3.7)" % (where, c))
+            descriptors.append((rank, codes))
+        # the exact length, from the descriptors, before allocating for the values (§3.7, §8)
+        w = len(self.wavelengths)
+        s = 4 if prec == 1 else 2
+        nvals = sum(rank * w + rank * sum(FACT_NODE_COUNT[k] for k in codes)
+                    for rank, codes in descriptors)
+        if len(body) != r.pos + s * nvals:
+            raise malformed("%s: length %d, layout needs %d (§3.7)"
+                            % (where, len(body), r.pos + s * nvals))
+        # f16 values are the binary16 numbers themselves, widened exactly, no scale (§3.7)
+        vals = r.take("%d%s" % (nvals, "f" if prec == 1 else "e"), "values")
+        if not all(math.isfinite(v) for v in vals):
+            raise malformed("%s: a value is not finite (§3.7)" % where)
+        for i, (lo, hi) in enumerate(ranges):
+            bound = 90.0 if i < 4 else 1.0
+            low = 0.0 if i < 4 else -1.0
+            if not (math.isfinite(lo) and math.isfinite(hi) and low <= lo <= hi <= bound):
+                raise malformed("%s: range %d (%r, %r) not finite, min > max or outside [%g, %g] "
+                                "(§3.7)" % (where, i, lo, hi, low, bound))
+        components, pos = [], 0
+
+        def take(n):
+            nonlocal pos
+            pos += n
+            return list(vals[pos - n:pos])
+
+        for rank, codes in descriptors:
+            spectra, tables = [take(w)], []
+            for rk in range(rank):
+                if rk >= 1:
+                    spectra.append(take(w))
+                tables.append([take(FACT_NODE_COUNT[k]) for k in codes])
+            components.append((codes, spectra, tables))
+        self.fact_ranges = ranges
+        return components
+
+    def parse_xval(self, body, where):
+        """§3.8. Validated, then kept as [(rel, log)] per record; no part in evaluation."""
+        if len(body) < 1:
+            raise malformed("%s: length 0, layout needs %d (§3.8)" % (where, 4 + 8 * self.n))
+        protocol = body[0]
+        if protocol not in (1, 2):
+            return  # unknown protocol: skip the chunk like an unknown ancillary one (§3.8)
+        if len(body) < 4:
+            raise malformed("%s: shorter than its 4-byte fixed part (§3.8)" % where)
+        folds, reserved = struct.unpack_from("<BH", body, 1)
+        if reserved:
+            raise malformed("%s: non-zero reserved byte (§3.8)" % where)
+        if (protocol == 1 and folds < 2) or (protocol == 2 and folds != 0):
+            raise malformed("%s: folds k = %d with protocol %d (§3.8)" % (where, folds, protocol))
+        if len(body) != 4 + 8 * self.n:
+            raise malformed("%s: length %d, layout needs %d (§3.8)"
+                            % (where, len(body), 4 + 8 * self.n))
+        errors = struct.unpack_from("<%df" % (2 * self.n), body, 4)
+        if not all(math.isfinite(e) and e >= 0 for e in errors):
+            raise malformed("%s: an error is negative or not finite (§3.8)" % where)
+        self.xval = [errors[2 * i:2 * i + 2] for i in range(self.n)]
+
     def build_layout(self):
         """Classify the incidences ("The lattice of stored incidences")."""
         self.thetas = sorted({t for t, _ in self.incidences})
@@ -578,15 +759,56 @@ class SbrdfFile:
                         lobe_add(part, r.lobes[li], d(r.theta_p, r.phi_p), wi, w)
                         for k in range(r.terms):
                             coef[k] += wgt * part[k]
+        # step 5: F at the query's own directions after step 3's rotation (not at ωi*): the
+        # incident vector turned to azimuth 0 (FACT requires the isotropic flag, §3.7) and ω
+        fact = None
+        if self.fact is not None:
+            fact = self.fact_tables(d(theta_i, 0.0), w)
         out = []
         for lam in wavelengths:
             if not math.isfinite(lam):
                 out.append(0.0)
                 continue
             b = self.basis_at(lam, tmax)
-            # step 5: the series clamped at 0
-            out.append(max(0.0, sum(c * bk for c, bk in zip(coef, b))))
+            value = sum(c * bk for c, bk in zip(coef, b))
+            if fact is not None:
+                value += self.fact_at(fact, lam)
+            # step 5: the series (plus F) clamped at 0
+            out.append(max(0.0, value))
         return out
+
+    def fact_tables(self, wi, wo):
+        """"Factor model": per component, its spectra and T_c0 … T_c(R-1) at the query's
+        features (the parts of η_c that do not depend on λ)."""
+        feat = fact_features(wi, wo, self.fact_ranges)
+        out = []
+        for codes, spectra, tables in self.fact:
+            t_r = [sum(table_value(k, t, feat) for k, t in zip(codes, per_rank))
+                   for per_rank in tables]  # T_cr = Σ_f t_crf(u_f)
+            out.append((spectra, t_r))
+        return out
+
+    def fact_at(self, fact, lam):
+        """F(ωi, ωo, λ) = Σ_c exp(min(η_c, 60)) for a finite λ ("Factor model", Spectra)."""
+        waves = self.wavelengths
+        if len(waves) == 1 or lam <= waves[0]:
+            j, a = 0, 0.0
+        elif lam >= waves[-1]:
+            j, a = len(waves) - 1, 0.0
+        else:
+            j = bisect.bisect_right(waves, lam) - 1  # λ_j <= λ < λ_(j+1)
+            a = (lam - waves[j]) / (waves[j + 1] - waves[j])
+
+        def spectrum(v):
+            return v[j] if a == 0 else v[j] + a * (v[j + 1] - v[j])
+
+        total = 0.0
+        for spectra, t_r in fact:
+            eta = spectrum(spectra[0]) + t_r[0]
+            for r in range(1, len(t_r)):
+                eta += spectrum(spectra[r]) * t_r[r]
+            total += math.exp(min(eta, 60.0))
+        return total
 
     def add_shared_lobe(self, coef, kind, li, recs, tmax, wi, w, ts, ps):
         """A lobe present, of one kind, in every blended record ("Lobes by position")."""

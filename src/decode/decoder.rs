@@ -92,6 +92,20 @@ impl Decoder {
         self.evaluator.eval(wi, wo, wavelengths, out)
     }
 
+    /// [`Decoder::eval_deg`] without the clamp at 0 of `spec/EVALUATION.md`, "Reconstruction",
+    /// step 5: the model's own value, which can be negative between the samples. For measuring
+    /// how often a fit undershoots; renderers want [`Decoder::eval`].
+    pub fn eval_deg_unclamped(
+        &self,
+        incident: (f64, f64),
+        outgoing: (f64, f64),
+        wavelengths: &[f64],
+        out: &mut [f64],
+    ) {
+        self.evaluator
+            .eval_deg_with(incident, outgoing, wavelengths, out, false)
+    }
+
     /// Convenience form of [`Decoder::eval`] with angles in degrees.
     pub fn eval_deg(
         &self,

@@ -3,6 +3,7 @@
 
 use super::lattice::{unit, Blend, Lattice, QueryFrame};
 use crate::model::angles::{angle_between, deg_from_dir, dir_from_deg, dot, mirror_deg, normalize};
+use crate::model::factor::{FactorModel, FeatureValues, MAX_COMPONENTS, MAX_RANK};
 use crate::model::lobes::MicrofacetGeometry;
 use crate::model::material::{LobeKind, Material, MAX_TERMS};
 use crate::model::sh::{sh_count, ShBasis, MAX_SH_LEVEL};
@@ -33,6 +34,8 @@ pub(crate) struct Evaluator {
     /// SH level ≤ 6 and ≤ 16 terms: evaluation can use small scratch arrays.
     small: bool,
     spectrum: SpectrumEvaluator,
+    /// The factor model shared by every incidence, with its wavelength nodes, if any.
+    factor: Option<(FactorModel, WavelengthNodes)>,
     /// The stored θ range's ends with their sine and cosine: a query clamped to an end keeps
     /// its azimuth without trigonometry.
     theta_ends: [(f64, f64, f64); 2],
@@ -74,6 +77,10 @@ impl Evaluator {
             })
             .collect();
         let spectrum = SpectrumEvaluator::new(&material.spectral);
+        let factor = material.factor.clone().map(|f| {
+            let nodes = WavelengthNodes::new(&material.wavelengths);
+            (f, nodes)
+        });
         let end = |t: f64| {
             let (s, c) = t.to_radians().sin_cos();
             (t, s, c)
@@ -89,6 +96,7 @@ impl Evaluator {
             lattice,
             small,
             spectrum,
+            factor,
             theta_ends: [end(first), end(last)],
         }
     }
@@ -112,7 +120,9 @@ impl Evaluator {
         }
         let q = self.query_frame(wi);
         let wl = wavelengths.iter().map(|&l| l as f64);
-        let sink = |i: usize, v: f64| out[i] = v as f32;
+        // Clamped at 0 (spec/EVALUATION.md, "Reconstruction", step 5): a fit can undershoot
+        // between its samples, and a renderer would turn that into negative light.
+        let sink = |i: usize, v: f64| out[i] = v.max(0.0) as f32;
         self.eval_frame(q.theta, q.phi, Some(q.wi), q.in_frame(wo), wl, sink);
     }
 
@@ -157,6 +167,19 @@ impl Evaluator {
         wavelengths: &[f64],
         out: &mut [f64],
     ) {
+        self.eval_deg_with(incident, outgoing, wavelengths, out, true)
+    }
+
+    /// [`Evaluator::eval_deg`], with or without step 5's clamp at 0 (unclamped: to measure how
+    /// often a model undershoots).
+    pub(crate) fn eval_deg_with(
+        &self,
+        incident: (f64, f64),
+        outgoing: (f64, f64),
+        wavelengths: &[f64],
+        out: &mut [f64],
+        clamp: bool,
+    ) {
         let n = wavelengths.len().min(out.len());
         let out = &mut out[..n];
         let finite = incident.1.is_finite() && outgoing.1.is_finite();
@@ -165,7 +188,7 @@ impl Evaluator {
             return;
         }
         let wl = wavelengths[..n].iter().copied();
-        let sink = |i: usize, v: f64| out[i] = v;
+        let sink = |i: usize, v: f64| out[i] = if clamp { v.max(0.0) } else { v };
         if self.material.isotropic {
             let wo = dir_from_deg(outgoing.0, outgoing.1 - incident.1);
             self.eval_frame(incident.0, 0.0, None, wo, wl, sink);
@@ -207,6 +230,15 @@ impl Evaluator {
         mut sink: impl FnMut(usize, f64),
     ) {
         let m = &self.material;
+        // The factor model sees the query as it is (its features are clamped to the ranges it
+        // was fitted on); the records, the nearest stored incidences.
+        let factor = self.factor.as_ref().map(|(f, _)| {
+            let wq = wi.unwrap_or_else(|| dir_from_deg(theta, phi));
+            let feats = FeatureValues::of(wq, wo).clamped(&f.ranges);
+            let mut t = [0.0f64; MAX_COMPONENTS * MAX_RANK];
+            f.angular(&feats, &mut t);
+            t
+        });
         let (blend, wi, theta, phi) = self.resolve(theta, phi, wi);
         let recs = &blend.rec[..blend.n];
         let ws = &blend.w[..blend.n];
@@ -278,9 +310,13 @@ impl Evaluator {
                 sink(i, 0.0); // documented: a non-finite wavelength gives 0
                 continue;
             }
-            // Clamped at 0 (spec/EVALUATION.md, "Reconstruction", step 5): a fit can undershoot
-            // between its samples, and a renderer would turn that into negative light.
-            sink(i, self.spectrum.dot(&c[..k], l).max(0.0));
+            // The sink clamps at 0 (step 5) unless an unclamped value was asked for.
+            let mut v = self.spectrum.dot(&c[..k], l);
+            if let (Some((f, nodes)), Some(t)) = (&self.factor, &factor) {
+                let (j, a) = nodes.bracket(l);
+                v += f.value(t, j, a);
+            }
+            sink(i, v);
         }
     }
 
@@ -465,5 +501,33 @@ impl Evaluator {
                 }
             }
         }
+    }
+}
+
+/// The file's wavelengths as interpolation nodes: a wavelength's bracket (j, a), value =
+/// (1 − a)·v_j + a·v_{j+1}, λ clamped to the nodes' range.
+#[derive(Debug, Clone)]
+pub(crate) struct WavelengthNodes {
+    nodes: Vec<f64>,
+}
+
+impl WavelengthNodes {
+    fn new(w: &[f32]) -> Self {
+        WavelengthNodes {
+            nodes: w.iter().map(|&v| v as f64).collect(),
+        }
+    }
+
+    fn bracket(&self, l: f64) -> (usize, f64) {
+        let n = &self.nodes;
+        if n.len() == 1 || l.is_nan() || l <= n[0] {
+            return (0, 0.0);
+        }
+        let last = n.len() - 1;
+        if l >= n[last] {
+            return (last, 0.0);
+        }
+        let j = n.partition_point(|&x| x <= l) - 1;
+        (j, (l - n[j]) / (n[j + 1] - n[j]))
     }
 }

@@ -26,6 +26,10 @@ pub const CHUNK_ENDF: [u8; 4] = *b"ENDF";
 pub const CHUNK_SBAS: [u8; 4] = *b"SBAS";
 pub const CHUNK_META: [u8; 4] = *b"meta";
 pub const CHUNK_SAMP: [u8; 4] = *b"samp";
+pub const CHUNK_FACT: [u8; 4] = *b"FACT";
+pub const CHUNK_XVAL: [u8; 4] = *b"xval";
+/// The minor version of files that use a 1.1 feature (a factor model); others are written as 1.0.
+pub const VERSION_MINOR_FACTOR: u16 = 1;
 
 pub(crate) const HEAD_FIXED: usize = 40;
 pub(crate) const RECD_FIXED: usize = 40;

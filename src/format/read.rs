@@ -3,6 +3,9 @@
 
 use super::*;
 use crate::error::{Error, Location, Result};
+use crate::model::factor::{
+    FactorComponent, FactorModel, Feature, MAX_COMPONENTS, MAX_FEATURES, MAX_RANK,
+};
 use crate::model::material::*;
 use crate::model::sh::{sh_count, MAX_SH_LEVEL};
 use crate::model::spectral::{SpectralBasis, SpectralSpace};
@@ -354,6 +357,117 @@ fn read_samp(f: &mut Fields, n: usize) -> Result<Option<SamplePositions>> {
     }))
 }
 
+/// A `FACT` chunk (`FORMAT.md`, §3.7): sizes and codes first, every length checked against the
+/// bytes present before anything is allocated.
+fn read_factor(f: &mut Fields, w: usize) -> Result<FactorModel> {
+    let count = f.u8("component_count")? as usize;
+    if count == 0 || count > MAX_COMPONENTS {
+        return Err(f.malformed(format!("{count} factor components (1 to {MAX_COMPONENTS})")));
+    }
+    let code = f.u8("precision")?;
+    let precision = Precision::from_code(code)
+        .ok_or_else(|| f.unsupported(format!("unknown factor precision code {code}")))?;
+    f.zero(2, "reserved")?;
+    let mut ranges = [[0f32; 2]; 5];
+    for r in &mut ranges {
+        r[0] = f.f32("range_min")?;
+        r[1] = f.f32("range_max")?;
+    }
+    let mut shapes = Vec::with_capacity(count);
+    let mut values = 0usize;
+    for _ in 0..count {
+        let rank = f.u8("rank")? as usize;
+        let nf = f.u8("feature_count")? as usize;
+        if rank == 0 || rank > MAX_RANK || nf == 0 || nf > MAX_FEATURES {
+            return Err(f.malformed(format!(
+                "a factor component of rank {rank} with {nf} features (1 to {MAX_RANK}, 1 to \
+                 {MAX_FEATURES})"
+            )));
+        }
+        let mut features = Vec::with_capacity(nf);
+        for _ in 0..nf {
+            let c = f.u8("feature")?;
+            let k = Feature::from_code(c)
+                .ok_or_else(|| f.unsupported(format!("unknown factor feature code {c}")))?;
+            features.push(k);
+        }
+        let per_rank: usize = features.iter().map(|k| k.table_len()).sum();
+        values += w * rank + rank * per_rank;
+        shapes.push((rank, features));
+    }
+    let need = values * precision.bytes();
+    if f.remaining() != need {
+        return Err(f.malformed(format!(
+            "the factor components need {need} bytes of values, the chunk has {} left",
+            f.remaining()
+        )));
+    }
+    let read_n = |f: &mut Fields, n: usize, what: &str| -> Result<Vec<f32>> {
+        (0..n).map(|_| f.stored(precision, 1.0, what)).collect()
+    };
+    let mut components = Vec::with_capacity(count);
+    for (rank, features) in shapes {
+        let spectrum = read_n(f, w, "spectrum")?;
+        let mut modulation = Vec::with_capacity(rank - 1);
+        let mut tables = Vec::with_capacity(rank);
+        for r in 0..rank {
+            if r >= 1 {
+                modulation.push(read_n(f, w, "modulation")?);
+            }
+            let mut t = Vec::with_capacity(features.len());
+            for k in &features {
+                t.push(read_n(f, k.table_len(), "table")?);
+            }
+            tables.push(t);
+        }
+        components.push(FactorComponent {
+            features,
+            spectrum,
+            modulation,
+            tables,
+        });
+    }
+    f.finish()?;
+    Ok(FactorModel {
+        precision,
+        ranges,
+        components,
+    })
+}
+
+/// An `xval` chunk: per record the held-out rel and log errors. An unknown protocol code makes
+/// the reader skip the chunk, as it skips an unknown ancillary chunk.
+fn read_xval(f: &mut Fields, n: usize) -> Result<Option<HeldOutErrors>> {
+    let code = f.u8("protocol")?;
+    if !(1..=2).contains(&code) {
+        return Ok(None); // unknown protocol: the chunk is skipped whatever it holds
+    }
+    let k = f.u8("folds")?;
+    f.zero(2, "reserved")?;
+    let protocol = match (code, k) {
+        (1, k) if k >= 2 => HeldOutProtocol::Folds(k),
+        (2, 0) => HeldOutProtocol::LeaveOneOut,
+        _ => {
+            return Err(f.malformed(format!(
+                "held-out protocol {code} with {k} folds (protocol 1 needs 2 or more, 2 needs 0)"
+            )))
+        }
+    };
+    if f.remaining() != 8 * n {
+        return Err(f.malformed(format!(
+            "{n} records need {} bytes of held-out errors, the chunk has {}",
+            8 * n,
+            f.remaining()
+        )));
+    }
+    let (mut rel, mut log) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for _ in 0..n {
+        rel.push(f.f32("rel")?);
+        log.push(f.f32("log")?);
+    }
+    Ok(Some(HeldOutErrors { protocol, rel, log }))
+}
+
 fn location(offset: usize, chunk: Option<[u8; 4]>) -> Location {
     Location {
         offset: offset as u64,
@@ -393,6 +507,8 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
     let mut samples = None;
     let mut seen_samp = false;
     let mut table = None;
+    let mut factor = None;
+    let (mut held_out, mut seen_xval) = (None, false);
     loop {
         if pos == bytes.len() {
             return Err(malformed(
@@ -507,6 +623,26 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                     precision,
                 });
             }
+            (&CHUNK_FACT, Some(h)) => {
+                if factor.is_some()
+                    || !records.is_empty()
+                    || (h.spectral.basis == SpectralBasis::Tabulated && table.is_none())
+                {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "FACT must appear once, after SBAS and before the records".into(),
+                    ));
+                }
+                factor = Some(read_factor(&mut f, h.wavelengths.len())?);
+            }
+            (&CHUNK_XVAL, Some(h)) => {
+                if seen_xval {
+                    return Err(malformed(pos, Some(kind), "a second xval chunk".into()));
+                }
+                seen_xval = true;
+                held_out = read_xval(&mut f, h.incidences.len())?;
+            }
             (&CHUNK_RECD, Some(h)) => {
                 if h.spectral.basis == SpectralBasis::Tabulated && table.is_none() {
                     return Err(malformed(
@@ -599,6 +735,8 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
         records,
         metadata,
         sample_positions: samples.flatten(),
+        factor,
+        held_out,
     };
     m.validate()
         .map_err(|message| malformed(SIGNATURE.len(), None, message))?;

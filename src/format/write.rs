@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::error::{Error, Result};
+use crate::model::factor::FactorModel;
 use crate::model::material::*;
 use crate::model::sh::sh_count;
 use crate::model::Precision;
@@ -65,7 +66,13 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
 
     let mut d = Vec::with_capacity(HEAD_FIXED + 4 * m.wavelengths.len() + 8 * m.records.len());
     d.extend_from_slice(&VERSION_MAJOR.to_le_bytes());
-    d.extend_from_slice(&VERSION_MINOR.to_le_bytes());
+    // 1.1 only where a 1.1 feature is used: other files stay readable byte for byte as 1.0.
+    let minor = if m.factor.is_some() {
+        VERSION_MINOR_FACTOR
+    } else {
+        VERSION_MINOR
+    };
+    d.extend_from_slice(&minor.to_le_bytes());
     d.extend_from_slice(&(m.isotropic as u32).to_le_bytes());
     d.push(m.spectral.basis.code());
     d.push(0); // reserved (precision is per record)
@@ -96,6 +103,9 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
             }
         }
         push_chunk(&mut out, CHUNK_SBAS, &d);
+    }
+    if let Some(f) = &m.factor {
+        push_chunk(&mut out, CHUNK_FACT, &factor_chunk(f));
     }
     if let Some(meta) = &m.metadata {
         push_chunk(&mut out, CHUNK_META, meta.as_bytes());
@@ -137,6 +147,18 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
             d.extend_from_slice(&i.to_le_bytes());
         }
         push_chunk(&mut out, CHUNK_SAMP, &d);
+    }
+    if let Some(h) = &m.held_out {
+        let (protocol, k) = match h.protocol {
+            HeldOutProtocol::Folds(k) => (1u8, k),
+            HeldOutProtocol::LeaveOneOut => (2, 0),
+        };
+        let mut d = vec![protocol, k, 0, 0];
+        for (r, l) in h.rel.iter().zip(&h.log) {
+            d.extend_from_slice(&r.to_le_bytes());
+            d.extend_from_slice(&l.to_le_bytes());
+        }
+        push_chunk(&mut out, CHUNK_XVAL, &d);
     }
 
     for (index, r) in m.records.iter().enumerate() {
@@ -188,4 +210,32 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     }
     push_chunk(&mut out, CHUNK_ENDF, &[]);
     Ok(out)
+}
+
+/// The data of a `FACT` chunk (`FORMAT.md`, §3.7).
+fn factor_chunk(f: &FactorModel) -> Vec<u8> {
+    let mut d = vec![f.components.len() as u8, f.precision.code(), 0, 0];
+    for r in &f.ranges {
+        d.extend_from_slice(&r[0].to_le_bytes());
+        d.extend_from_slice(&r[1].to_le_bytes());
+    }
+    for c in &f.components {
+        d.push(c.rank() as u8);
+        d.push(c.features.len() as u8);
+        d.extend(c.features.iter().map(|k| k.code()));
+    }
+    let mut put = |v: f32| match f.precision {
+        Precision::F32 => d.extend_from_slice(&v.to_le_bytes()),
+        Precision::F16 => d.extend_from_slice(&f16::from_f32(v).to_le_bytes()),
+    };
+    for c in &f.components {
+        c.spectrum.iter().for_each(|&v| put(v));
+        for (r, tables) in c.tables.iter().enumerate() {
+            if r >= 1 {
+                c.modulation[r - 1].iter().for_each(|&v| put(v));
+            }
+            tables.iter().flatten().for_each(|&v| put(v));
+        }
+    }
+    d
 }

@@ -3,6 +3,7 @@
 //! Values held here are exactly the values the file represents (f16 values already multiplied by
 //! their record's scale), so writing and reading back is lossless.
 
+use crate::model::factor::FactorModel;
 use crate::model::precision::Precision;
 use crate::model::sh::{sh_count, MAX_SH_LEVEL};
 use crate::model::spectral::SpectralSpace;
@@ -221,6 +222,27 @@ pub struct Material {
     /// JSON text of the `meta` chunk, if any.
     pub metadata: Option<String>,
     pub sample_positions: Option<SamplePositions>,
+    /// The model shared by every incidence (`FACT`), added to the records' values.
+    pub factor: Option<FactorModel>,
+    /// The encoder's held-out error per record (`xval`), beside each record's fit error.
+    pub held_out: Option<HeldOutErrors>,
+}
+
+/// How a record's held-out error was measured (`FORMAT.md`, `xval`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HeldOutProtocol {
+    /// k-fold over each incidence's outgoing samples (`EVALUATION.md`, "Held-out error").
+    Folds(u8),
+    /// Leave one outgoing sample out, predicted from the least-squares hat matrix (PRESS).
+    LeaveOneOut,
+}
+
+/// Per record, the relative L2 and log errors at samples the encoder did not see.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldOutErrors {
+    pub protocol: HeldOutProtocol,
+    pub rel: Vec<f32>,
+    pub log: Vec<f32>,
 }
 
 impl Material {
@@ -366,6 +388,28 @@ impl Material {
                     return Err(at(format!("lobe amplitude {v} is not finite")));
                 }
                 lobe.kind.check_params(&lobe.params).map_err(at)?;
+            }
+        }
+        if let Some(f) = &self.factor {
+            if !self.isotropic {
+                return Err("a factor model needs an isotropic file".into());
+            }
+            f.validate(self.wavelengths.len())?;
+        }
+        if let Some(h) = &self.held_out {
+            if h.rel.len() != self.records.len() || h.log.len() != self.records.len() {
+                return Err("held-out errors name a different number of incidences".into());
+            }
+            if let Some(v) = h
+                .rel
+                .iter()
+                .chain(&h.log)
+                .find(|v| !(v.is_finite() && **v >= 0.0))
+            {
+                return Err(format!("held-out error {v} is not ≥ 0"));
+            }
+            if h.protocol == HeldOutProtocol::Folds(0) || h.protocol == HeldOutProtocol::Folds(1) {
+                return Err("held-out errors from fewer than 2 folds".into());
             }
         }
         if let Some(sp) = &self.sample_positions {

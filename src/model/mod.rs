@@ -1,7 +1,9 @@
 //! What a file holds and the math both sides share: the in-memory material, spectral bases,
-//! spherical harmonics, lobe shapes and the angle conventions. Uses nothing above it.
+//! spherical harmonics, lobe shapes, the factor model shared across incidences, and the angle
+//! conventions. Uses nothing above it.
 
 pub mod angles;
+pub mod factor;
 pub mod lobes;
 pub mod material;
 pub mod precision;
