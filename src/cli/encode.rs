@@ -4,7 +4,7 @@
 use clap::{Args, ValueEnum};
 use sbrdf::encode::fit::{LobeFamily, PeakMode};
 use sbrdf::encode::settings::{self, EncodeSettings};
-use sbrdf::encode::EncodeOptions;
+use sbrdf::encode::{EncodeOptions, ModelChoice};
 use sbrdf::io::output::write_bytes_atomic;
 use sbrdf::{Precision, Result, SpectralBasis};
 use std::path::PathBuf;
@@ -42,6 +42,20 @@ pub enum LobeArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+pub enum ModelArg {
+    /// Records, unless they cannot meet the budget between the samples of an isotropic input
+    /// (measured data); then whichever of records and the shared model predicts held-out
+    /// samples better. An explicit --max-error keeps records.
+    Auto,
+    /// One record per incidence (SH background and lobes), fitted to its own samples: the most
+    /// accurate at the samples of dense, clean data.
+    Records,
+    /// One factor model shared by every incidence (isotropic inputs): for sparse, noisy
+    /// measurements, predicting between the samples and between the incidences.
+    Shared,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 pub enum PrecisionArg {
     F32,
     F16,
@@ -63,6 +77,9 @@ pub struct EncodeArgs {
 /// The encoder's options, as `encode`, `validate` and the other commands that encode take them.
 #[derive(Args)]
 pub struct EncodeOptionArgs {
+    /// Which model the file holds.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub model: ModelArg,
     /// Spectral basis.
     #[arg(long, value_enum, default_value = "data")]
     pub basis: BasisArg,
@@ -153,6 +170,11 @@ impl EncodeOptionArgs {
                 .iter()
                 .map(|kv| settings::parse_metadata(kv))
                 .collect::<Result<_>>()?,
+            model: match a.model {
+                ModelArg::Auto => ModelChoice::Auto,
+                ModelArg::Records => ModelChoice::Records,
+                ModelArg::Shared => ModelChoice::Shared,
+            },
             // Resolved by EncodeSettings::options.
             ..EncodeOptions::default()
         };

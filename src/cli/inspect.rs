@@ -119,17 +119,45 @@ pub fn cmd_info(a: InfoArgs) -> Result<()> {
             ""
         }
     );
-    println!("records:        θi      φi      θp      φp      critical  lobes  rel_error");
-    for r in &m.records {
+    if let Some(f) = &m.factor {
+        let comps: Vec<String> = f
+            .components
+            .iter()
+            .map(|c| {
+                let names: Vec<&str> = c.features.iter().map(|k| k.name()).collect();
+                format!("rank {} over {}", c.rank(), names.join(", "))
+            })
+            .collect();
         println!(
-            "                {:<7} {:<7} {:<7.3} {:<7.3} {:<9.2} {:<6} {:.5}",
+            "factor model:   shared by every incidence, {} parameters ({}): {}",
+            f.parameter_count(),
+            f.precision.name(),
+            comps.join("; ")
+        );
+    }
+    let held = m.held_out.as_ref();
+    let protocol = held.map(|h| match h.protocol {
+        sbrdf::model::material::HeldOutProtocol::Folds(k) => format!("{k}-fold"),
+        sbrdf::model::material::HeldOutProtocol::LeaveOneOut => "leave-one-out".into(),
+    });
+    println!(
+        "records:        θi      φi      θp      φp      critical  lobes  rel_error{}",
+        protocol.map_or(String::new(), |p| format!("  held-out rel / log ({p})"))
+    );
+    for (i, r) in m.records.iter().enumerate() {
+        println!(
+            "                {:<7} {:<7} {:<7.3} {:<7.3} {:<9.2} {:<6} {:.5}{}",
             r.theta_i,
             r.phi_i,
             r.theta_p,
             r.phi_p,
             r.critical_angle,
             r.lobes.len(),
-            r.rel_error
+            r.rel_error,
+            held.map_or(String::new(), |h| format!(
+                "    {:.5} / {:.4}",
+                h.rel[i], h.log[i]
+            ))
         );
     }
     if let Some(meta) = &m.metadata {

@@ -19,6 +19,14 @@ pub struct ValidateArgs {
     /// Also encode without each incidence in turn and measure the error at it.
     #[arg(long)]
     pub leave_incidence_out: bool,
+    /// Leave out only the incidence(s) at θi = DEG (repeatable; implies
+    /// --leave-incidence-out).
+    #[arg(long, value_name = "DEG")]
+    pub leave_out: Vec<f64>,
+    /// Also evaluate the model on a dense grid (θi every 5°, θo every 2.5°, φo every 5°) and
+    /// count the values below 0 before the decoder's clamp.
+    #[arg(long)]
+    pub dense_grid: bool,
     /// Machine-readable output.
     #[arg(long)]
     pub json: bool,
@@ -56,7 +64,9 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
     let opts = settings.options(&inputs);
     let v = ValidateOptions {
         folds: a.folds,
-        leave_incidence_out: a.leave_incidence_out,
+        leave_incidence_out: a.leave_incidence_out || !a.leave_out.is_empty(),
+        leave_out_only: a.leave_out.clone(),
+        dense_grid: a.dense_grid,
     };
     let r = validate(&set, &opts, &v)?;
     if a.json {
@@ -76,6 +86,10 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
             "bytes_without_positions": r.bytes, "raw_f32_bytes": set.raw_f32_bytes(),
             "fit": json(Some(&r.fit)), "folds_error": json(r.folds.as_ref()),
             "left_out": json(r.left_out.as_ref()), "incidences": rows,
+            "dense_grid": r.dense.map(|d| serde_json::json!({
+                "values": d.values, "negative": d.negative, "minimum": d.minimum,
+                "not_finite": d.not_finite,
+            })),
         });
         println!("{}", serde_json::to_string_pretty(&v).expect("JSON"));
         return Ok(());
@@ -129,5 +143,19 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
         cell(r.folds.as_ref()),
         cell(r.left_out.as_ref())
     );
+    if let Some(d) = r.dense {
+        println!(
+            "dense grid: {} values, {} below 0 before the clamp ({:.3}%), lowest {:.4e}{}",
+            d.values,
+            d.negative,
+            100.0 * d.negative as f64 / d.values.max(1) as f64,
+            d.minimum,
+            if d.not_finite > 0 {
+                format!(", {} not finite", d.not_finite)
+            } else {
+                String::new()
+            }
+        );
+    }
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! What `sbrdf info --json` prints about a file, as a JSON value: shared by the command line and
 //! the Python binding (`Material.info`).
 
-use crate::model::material::Material;
+use crate::model::material::{HeldOutProtocol, Material};
 
 /// The description of `m`, read from `file` (a name for the record) of `bytes` bytes.
 pub fn to_json(m: &Material, file: &str, bytes: u64) -> serde_json::Value {
@@ -10,10 +10,17 @@ pub fn to_json(m: &Material, file: &str, bytes: u64) -> serde_json::Value {
         .as_deref()
         .map(|t| serde_json::from_str(t).unwrap_or_else(|_| serde_json::Value::from(t)))
         .unwrap_or(serde_json::Value::Null);
+    let held = |i: usize| {
+        m.held_out.as_ref().map_or(
+            serde_json::Value::Null,
+            |h| serde_json::json!({"rel": h.rel[i], "log": h.log[i]}),
+        )
+    };
     let records: Vec<_> = m
         .records
         .iter()
-        .map(|r| {
+        .enumerate()
+        .map(|(i, r)| {
             serde_json::json!({
                 "terms": r.terms, "sh_level": r.sh_level, "precision": r.precision.name(),
                 "theta_i": r.theta_i, "phi_i": r.phi_i,
@@ -21,6 +28,7 @@ pub fn to_json(m: &Material, file: &str, bytes: u64) -> serde_json::Value {
                 "critical_angle": r.critical_angle,
                 "lobes": r.lobes.iter().map(|l| l.kind.name()).collect::<Vec<_>>(),
                 "rel_error": r.rel_error,
+                "held_out_error": held(i),
             })
         })
         .collect();
@@ -39,6 +47,18 @@ pub fn to_json(m: &Material, file: &str, bytes: u64) -> serde_json::Value {
         "incident_count": m.records.len(),
         "sample_positions": m.sample_positions.is_some(),
         "records": records,
+        "held_out_protocol": m.held_out.as_ref().map(|h| match h.protocol {
+            HeldOutProtocol::Folds(k) => format!("{k}-fold"),
+            HeldOutProtocol::LeaveOneOut => "leave-one-out".to_string(),
+        }),
+        "factor_model": m.factor.as_ref().map(|f| serde_json::json!({
+            "components": f.components.iter().map(|c| serde_json::json!({
+                "rank": c.rank(),
+                "features": c.features.iter().map(|k| k.name()).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+            "parameters": f.parameter_count(),
+            "precision": f.precision.name(),
+        })),
         "metadata": meta,
     })
 }

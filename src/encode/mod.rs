@@ -9,8 +9,9 @@ pub mod fit;
 pub mod info;
 pub mod samples;
 pub mod settings;
+pub mod shared;
 pub mod subset;
 pub mod validate;
 
-pub use encoder::{encode, EncodeOptions, Encoded};
+pub use encoder::{encode, EncodeOptions, Encoded, ModelChoice};
 pub use samples::{IncidentSamples, SampleSet};

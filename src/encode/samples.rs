@@ -39,6 +39,22 @@ impl SampleSet {
         4 * self.sample_count()
     }
 
+    /// Fraction of the values at or below 0: a measurement's floor (its noise clipped or read
+    /// as exactly 0). Analytic materials give none above the horizon.
+    pub fn floor_fraction(&self) -> f64 {
+        let n = self.sample_count();
+        if n == 0 {
+            return 0.0;
+        }
+        let at_floor = self
+            .incidences
+            .iter()
+            .flat_map(|s| s.values.iter())
+            .filter(|v| **v <= 0.0)
+            .count();
+        at_floor as f64 / n as f64
+    }
+
     pub fn negative_count(&self) -> usize {
         self.incidences
             .iter()

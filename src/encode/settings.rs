@@ -2,7 +2,7 @@
 //! selection, defaults, the error budget's verdict): one place that the command line and the
 //! Python binding both call, so that both validate, default and report alike.
 
-use crate::encode::encoder::{encode, EncodeOptions, Encoded, DEFAULT_MAX_ERROR};
+use crate::encode::encoder::{encode, EncodeOptions, Encoded, ModelChoice, DEFAULT_MAX_ERROR};
 use crate::encode::fit::LobeFamily;
 use crate::encode::fit::{CriticalAngle, PeakMode};
 use crate::encode::samples::ReadReport;
@@ -29,7 +29,8 @@ pub struct EncodeSettings {
 }
 
 /// The option names `EncodeSettings::set` knows, as the command line spells them.
-pub const NAMES: [&str; 13] = [
+pub const NAMES: [&str; 14] = [
+    "model",
     "basis",
     "terms",
     "sh-level",
@@ -94,6 +95,15 @@ pub fn parse_basis(s: &str) -> Result<SpectralBasis> {
     }
 }
 
+pub fn parse_model(s: &str) -> Result<ModelChoice> {
+    match s.trim() {
+        "auto" => Ok(ModelChoice::Auto),
+        "records" => Ok(ModelChoice::Records),
+        "shared" => Ok(ModelChoice::Shared),
+        _ => Err(bad("model", s, "auto, records or shared")),
+    }
+}
+
 pub fn parse_peak(s: &str) -> Result<PeakMode> {
     match s.trim() {
         "joint" => Ok(PeakMode::Joint),
@@ -152,6 +162,7 @@ impl EncodeSettings {
         let key = name.trim().trim_start_matches("--").replace('_', "-");
         let e = &mut self.encoder;
         match key.as_str() {
+            "model" => e.model = parse_model(value)?,
             "basis" => e.basis = parse_basis(value)?,
             "terms" => e.terms = Some(parse_count(&key, value)?),
             "sh-level" => e.sh_level = Some(parse_count(&key, value)?),
@@ -200,6 +211,8 @@ impl EncodeSettings {
             o.provenance
                 .push(("selected_incident_max_deg".into(), m.to_string()));
         }
+        // An explicit budget is met at the samples, as it always was.
+        o.budget_given = self.max_error.is_some();
         o.max_error = match (self.max_error, o.peak) {
             (Some(e), _) => Some(e),
             (None, PeakMode::Joint) => Some(DEFAULT_MAX_ERROR),

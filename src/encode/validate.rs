@@ -26,6 +26,12 @@ pub struct ValidateOptions {
     pub folds: usize,
     /// Also leave each incidence out in turn.
     pub leave_incidence_out: bool,
+    /// With `leave_incidence_out`, only the incidences at these θi (degrees, to 10⁻³°); empty:
+    /// every incidence.
+    pub leave_out_only: Vec<f64>,
+    /// Also evaluate the whole-input model on a dense grid and count the values that are below
+    /// 0 before the decoder's clamp.
+    pub dense_grid: bool,
 }
 
 impl Default for ValidateOptions {
@@ -33,8 +39,69 @@ impl Default for ValidateOptions {
         ValidateOptions {
             folds: 5,
             leave_incidence_out: false,
+            leave_out_only: Vec::new(),
+            dense_grid: false,
         }
     }
+}
+
+/// The model on a dense grid: θi every 5° from 0 to 90 (and φi every 30° for files that are not
+/// isotropic), θo every 2.5° from 1.25°, φo every 5°, the file's wavelengths.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DenseGrid {
+    pub values: usize,
+    /// Values below 0 before the clamp, and the lowest.
+    pub negative: usize,
+    pub minimum: f64,
+    /// Values that are not finite (never expected).
+    pub not_finite: usize,
+}
+
+fn dense_grid(dec: &Decoder, wavelengths: &[f64]) -> DenseGrid {
+    let phis: Vec<f64> = if dec.material().isotropic {
+        vec![0.0]
+    } else {
+        (0..12).map(|j| 30.0 * j as f64).collect()
+    };
+    let rows: Vec<(f64, f64)> = (0..=18)
+        .flat_map(|i| phis.iter().map(move |&p| (5.0 * i as f64, p)))
+        .collect();
+    rows.par_iter()
+        .map(|&(ti, pi)| {
+            let mut g = DenseGrid {
+                minimum: f64::INFINITY,
+                ..DenseGrid::default()
+            };
+            let mut out = vec![0.0; wavelengths.len()];
+            for a in 0..36 {
+                for b in 0..72 {
+                    let o = (1.25 + 2.5 * a as f64, 5.0 * b as f64);
+                    dec.eval_deg_unclamped((ti, pi), o, wavelengths, &mut out);
+                    for &v in &out {
+                        g.values += 1;
+                        if !v.is_finite() {
+                            g.not_finite += 1;
+                        } else {
+                            g.negative += (v < 0.0) as usize;
+                            g.minimum = g.minimum.min(v);
+                        }
+                    }
+                }
+            }
+            g
+        })
+        .reduce(
+            || DenseGrid {
+                minimum: f64::INFINITY,
+                ..DenseGrid::default()
+            },
+            |a, b| DenseGrid {
+                values: a.values + b.values,
+                negative: a.negative + b.negative,
+                minimum: a.minimum.min(b.minimum),
+                not_finite: a.not_finite + b.not_finite,
+            },
+        )
 }
 
 /// Sums behind one error figure, so that figures pool exactly.
@@ -101,6 +168,7 @@ pub struct ValidationReport {
     pub fit: ErrorSums,
     pub folds: Option<ErrorSums>,
     pub left_out: Option<ErrorSums>,
+    pub dense: Option<DenseGrid>,
 }
 
 /// ε of the log figure: 1% of the median over samples of the spectral mean value; 1% of the
@@ -198,6 +266,7 @@ pub fn validate(
         ..opts.clone()
     };
     let (dec, bytes) = encode_to_decoder(set, &quiet)?;
+    let dense = v.dense_grid.then(|| dense_grid(&dec, wl));
     let mut incidences: Vec<IncidenceReport> = set
         .incidences
         .par_iter()
@@ -211,48 +280,7 @@ pub fn validate(
         })
         .collect();
     if v.folds >= 2 {
-        let orders: Vec<Vec<usize>> = set
-            .incidences
-            .iter()
-            .enumerate()
-            .map(|(i, s)| {
-                // rank[d]: the position of direction d in the incidence's shuffled order.
-                let order = fold_order(s.directions.len(), i);
-                let mut rank = vec![0; order.len()];
-                for (pos, &d) in order.iter().enumerate() {
-                    rank[d] = pos;
-                }
-                rank
-            })
-            .collect();
-        let mut sums = vec![ErrorSums::default(); set.incidences.len()];
-        for f in 0..v.folds {
-            let held = |i: usize, d: usize| orders[i][d] % v.folds == f;
-            let train = SampleSet {
-                wavelengths: wl.clone(),
-                incidences: set
-                    .incidences
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, s)| {
-                        let keep: Vec<usize> =
-                            (0..s.directions.len()).filter(|&d| !held(i, d)).collect();
-                        (!keep.is_empty()).then(|| subset_directions(s, &keep, wl.len()))
-                    })
-                    .collect(),
-            };
-            let (dec, _) = encode_to_decoder(&train, &quiet)
-                .map_err(|e| Error::Parameter(format!("fold {} of {}: {e}", f + 1, v.folds)))?;
-            let fold: Vec<ErrorSums> = set
-                .incidences
-                .par_iter()
-                .enumerate()
-                .map(|(i, s)| score(&dec, s, wl, eps, |d| held(i, d)))
-                .collect();
-            for (a, b) in sums.iter_mut().zip(&fold) {
-                a.merge(b);
-            }
-        }
+        let sums = k_fold(set, &quiet, v.folds, 0, eps)?;
         for (r, s) in incidences.iter_mut().zip(sums) {
             r.folds = Some(s);
         }
@@ -264,6 +292,12 @@ pub fn validate(
             ));
         }
         for x in 0..set.incidences.len() {
+            let t = set.incidences[x].theta_i;
+            if !v.leave_out_only.is_empty()
+                && !v.leave_out_only.iter().any(|o| (o - t).abs() < 1e-3)
+            {
+                continue;
+            }
             let train = SampleSet {
                 wavelengths: wl.clone(),
                 incidences: set
@@ -284,12 +318,14 @@ pub fn validate(
             incidences[x].left_out = Some(score(&dec, s, wl, eps, |_| true));
         }
     }
+    // Pooled over the incidences that have the figure (all of them, but for a partial
+    // leave-one-out); None when none has it.
     let pool = |pick: &dyn Fn(&IncidenceReport) -> Option<ErrorSums>| -> Option<ErrorSums> {
-        let mut total = ErrorSums::default();
-        for r in &incidences {
-            total.merge(&pick(r)?);
+        let mut total: Option<ErrorSums> = None;
+        for s in incidences.iter().filter_map(pick) {
+            total.get_or_insert_with(ErrorSums::default).merge(&s);
         }
-        Some(total)
+        total
     };
     Ok(ValidationReport {
         epsilon: eps,
@@ -297,8 +333,65 @@ pub fn validate(
         fit: pool(&|r| Some(r.fit)).unwrap_or_default(),
         folds: pool(&|r| r.folds),
         left_out: pool(&|r| r.left_out),
+        dense,
         incidences,
     })
+}
+
+/// The k-fold held-out sums per incidence of encoding `set` with `opts`: incidence i's outgoing
+/// directions in the order of [`fold_order`] with seed index i + `salt`, fold f holding out the
+/// positions p with p mod k = f from every incidence at once (`EVALUATION.md`, "Held-out error").
+pub fn k_fold(
+    set: &SampleSet,
+    opts: &EncodeOptions,
+    k: usize,
+    salt: usize,
+    eps: f64,
+) -> Result<Vec<ErrorSums>> {
+    let wl = &set.wavelengths;
+    let orders: Vec<Vec<usize>> = set
+        .incidences
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            // rank[d]: the position of direction d in the incidence's shuffled order.
+            let order = fold_order(s.directions.len(), i + salt);
+            let mut rank = vec![0; order.len()];
+            for (pos, &d) in order.iter().enumerate() {
+                rank[d] = pos;
+            }
+            rank
+        })
+        .collect();
+    let mut sums = vec![ErrorSums::default(); set.incidences.len()];
+    for f in 0..k {
+        let held = |i: usize, d: usize| orders[i][d] % k == f;
+        let train = SampleSet {
+            wavelengths: wl.clone(),
+            incidences: set
+                .incidences
+                .iter()
+                .enumerate()
+                .filter_map(|(i, s)| {
+                    let keep: Vec<usize> =
+                        (0..s.directions.len()).filter(|&d| !held(i, d)).collect();
+                    (!keep.is_empty()).then(|| subset_directions(s, &keep, wl.len()))
+                })
+                .collect(),
+        };
+        let (dec, _) = encode_to_decoder(&train, opts)
+            .map_err(|e| Error::Parameter(format!("fold {} of {k}: {e}", f + 1)))?;
+        let fold: Vec<ErrorSums> = set
+            .incidences
+            .par_iter()
+            .enumerate()
+            .map(|(i, s)| score(&dec, s, wl, eps, |d| held(i, d)))
+            .collect();
+        for (a, b) in sums.iter_mut().zip(&fold) {
+            a.merge(b);
+        }
+    }
+    Ok(sums)
 }
 
 /// The samples of `s` at the directions `keep` (indices, increasing).

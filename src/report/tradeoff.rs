@@ -67,6 +67,9 @@ impl Setting {
             peak: self.peak,
             precision: self.precision,
             max_error: self.max_error,
+            // `--max-error` on the command line is an explicit budget: same here, so a
+            // row reproduces with `sbrdf encode` and its options.
+            budget_given: self.max_error.is_some(),
             ..EncodeOptions::default()
         }
     }

@@ -4,6 +4,7 @@
 
 use super::options::{CriticalAngle, JointOptions, LobeFamily, PeakMode};
 use crate::encode::samples::IncidentSamples;
+use crate::encode::validate::ErrorSums;
 use crate::model::angles::{angle_between, dir_from_deg, wrap_phi};
 use crate::model::material::{IncidentRecord, Lobe, LobeKind};
 use crate::model::sh::ShBasis;
@@ -33,6 +34,12 @@ pub struct Fitted {
     /// Σ(ρ̂ − ρ)² and Σρ² over this incidence's samples.
     pub sq_error: f64,
     pub sq_reference: f64,
+    /// The record's leave-one-out error at its samples (the joint fit; None for the paper's
+    /// split, whose peak and critical angle are not linear in the samples).
+    pub held_out: Option<ErrorSums>,
+    /// True when the budget lies below this incidence's held-out floor: no model met it at
+    /// samples the fit did not see.
+    pub below_floor: bool,
 }
 
 impl FitContext {
@@ -54,6 +61,8 @@ impl FitContext {
                 families: vec![LobeFamily::Gaussian],
                 precision: crate::model::Precision::F32,
                 max_error: None,
+                held_out: false,
+                log_epsilon: 1e-12,
             },
             sh: ShBasis::new(sh_level),
             spectral,
@@ -135,6 +144,36 @@ impl FitContext {
         alpha: &[f64],
         rho: &DMatrix<f64>,
     ) -> (f64, f64) {
+        // Clamped at 0 as the decoder returns it (spec/EVALUATION.md, "Reconstruction"), so
+        // every stored error is that of the values a decoder gives.
+        let approx = self.reconstruct(r, y, dirs, alpha).map(|v| v.max(0.0));
+        let err = (approx - rho).norm_squared();
+        (err, rho.norm_squared())
+    }
+
+    /// The lowest value a record takes (before the decoder's clamp) over its whole outgoing
+    /// hemisphere at its own incidence: θo every 2.5° from 1.25°, φo every 5°, every wavelength.
+    pub fn minimum_on_hemisphere(&self, r: &IncidentRecord) -> f64 {
+        let peak = dir_from_deg(r.theta_p as f64, r.phi_p as f64);
+        let dirs: Vec<[f64; 3]> = (0..36)
+            .flat_map(|a| (0..72).map(move |b| dir_from_deg(1.25 + 2.5 * a as f64, 5.0 * b as f64)))
+            .collect();
+        let alpha: Vec<f64> = dirs.iter().map(|v| angle_between(*v, peak)).collect();
+        let y = self.sh_matrix(&dirs);
+        self.reconstruct(r, &y, &dirs, &alpha)
+            .iter()
+            .cloned()
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The record's values (not clamped) at `dirs`: rows are directions, columns wavelengths.
+    fn reconstruct(
+        &self,
+        r: &IncidentRecord,
+        y: &DMatrix<f64>,
+        dirs: &[[f64; 3]],
+        alpha: &[f64],
+    ) -> DMatrix<f64> {
         let k = r.terms;
         let p = crate::model::sh::sh_count(r.sh_level);
         // A is stored k-major: column-major P×K is exactly that layout.
@@ -177,11 +216,7 @@ impl FitContext {
                 }
             }
         }
-        // Clamped at 0 as the decoder returns it (spec/EVALUATION.md, "Reconstruction"), so
-        // every stored error is that of the values a decoder gives.
-        let approx = (c * self.synthesis.rows(0, k)).map(|v| v.max(0.0));
-        let err = (approx - rho).norm_squared();
-        (err, rho.norm_squared())
+        c * self.synthesis.rows(0, k)
     }
 }
 
@@ -222,6 +257,17 @@ pub fn rel(sq_error: f64, sq_reference: f64) -> f64 {
 /// Columns are scaled to unit norm first, so a narrow lobe's small column is not mistaken for a
 /// dependent one next to the SH columns, and scaled back after.
 pub fn lstsq(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    lstsq_with_leverage(a, b, false).0
+}
+
+/// [`lstsq`], and with `leverage` the diagonal of the hat matrix A·A⁺ (each sample's leverage
+/// h_i ∈ [0, 1], from the same SVD and tolerance): a sample's leave-one-out residual is its
+/// residual divided by 1 − h_i.
+pub fn lstsq_with_leverage(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    leverage: bool,
+) -> (DMatrix<f64>, Vec<f64>) {
     let norms: Vec<f64> = a
         .column_iter()
         .map(|c| {
@@ -248,5 +294,17 @@ pub fn lstsq(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
     for (j, n) in norms.iter().enumerate() {
         x.row_mut(j).scale_mut(1.0 / n);
     }
-    x
+    let mut h = Vec::new();
+    if leverage {
+        let u = svd.u.as_ref().expect("U requested");
+        h = vec![0.0; a.nrows()];
+        for (j, &sv) in svd.singular_values.iter().enumerate() {
+            if sv > tol {
+                for (i, hi) in h.iter_mut().enumerate() {
+                    *hi += u[(i, j)] * u[(i, j)];
+                }
+            }
+        }
+    }
+    (x, h)
 }

@@ -12,10 +12,13 @@
 //! the first r columns of Q span the first r basis functions: one fit gives the error of every
 //! spectral rank r ≤ K at once, which is what `--max-error` searches over.
 
-use super::context::{lstsq, rel, stored_error, FitContext, Fitted};
-use super::options::{JointOptions, LobeFamily};
+use super::context::{lstsq, lstsq_with_leverage, rel, stored_error, FitContext, Fitted};
+use super::options::{
+    JointOptions, LobeFamily, HELD_OUT_OVERFIT, HELD_OUT_PLATEAU, HELD_OUT_SLACK,
+};
 use super::peak::find_peak_direction;
 use crate::encode::samples::IncidentSamples;
+use crate::encode::validate::ErrorSums;
 use crate::format::quantize_record_f16;
 use crate::model::angles::{angle_between, dir_from_deg, mirror_deg, wrap_phi};
 use crate::model::material::{IncidentRecord, Lobe, LobeKind};
@@ -46,7 +49,8 @@ struct Incidence {
     /// ‖ρ‖² and the part of it outside the spectral basis.
     total: f64,
     floor: f64,
-    /// Q and R of the synthesis matrix.
+    /// Q (W×K, orthonormal columns) and R⁻ᵀ of the synthesis matrix.
+    q: DMatrix<f64>,
     r_inv_t: DMatrix<f64>,
     /// SH values for the largest level, N×P.
     y: DMatrix<f64>,
@@ -61,6 +65,9 @@ struct LevelFit {
     xq: DMatrix<f64>,
     /// Squared residual per orthonormal term k.
     resid: Vec<f64>,
+    /// N×K residual in Q space and each sample's leverage (for leave-one-out errors).
+    res: DMatrix<f64>,
+    leverage: Vec<f64>,
 }
 
 fn prepare(ctx: &FitContext, s: &IncidentSamples) -> Result<Incidence, String> {
@@ -98,6 +105,7 @@ fn prepare(ctx: &FitContext, s: &IncidentSamples) -> Result<Incidence, String> {
         cq,
         total,
         floor,
+        q,
         r_inv_t,
         y,
     })
@@ -279,7 +287,7 @@ fn fit_level(inc: &Incidence, level: usize, lobe: Option<(LobeFamily, Vec<f64>)>
         }
         None => y,
     };
-    let xq = lstsq(&m, &inc.cq);
+    let (xq, leverage) = lstsq_with_leverage(&m, &inc.cq, true);
     let res = &inc.cq - &m * &xq;
     let resid = (0..res.ncols())
         .map(|k| res.column(k).norm_squared())
@@ -289,10 +297,36 @@ fn fit_level(inc: &Incidence, level: usize, lobe: Option<(LobeFamily, Vec<f64>)>
         lobe,
         xq,
         resid,
+        res,
+        leverage,
     }
 }
 
 impl LevelFit {
+    /// The leave-one-out error with the first `r` spectral terms: each sample predicted from the
+    /// others (residual / (1 − leverage), the PRESS identity of linear least squares for the
+    /// fixed lobe shape), clamped at 0 as decoded, against the measured spectrum.
+    fn held_out(&self, inc: &Incidence, s: &IncidentSamples, r: usize, eps: f64) -> ErrorSums {
+        let w = inc.q.nrows();
+        let mut sums = ErrorSums::default();
+        let mut pred = vec![0.0; r];
+        for i in 0..inc.n {
+            let d = (1.0 - self.leverage[i]).max(1e-6);
+            for (k, p) in pred.iter_mut().enumerate() {
+                *p = inc.cq[(i, k)] - self.res[(i, k)] / d;
+            }
+            for l in 0..w {
+                let v: f64 = pred
+                    .iter()
+                    .enumerate()
+                    .map(|(k, p)| p * inc.q[(l, k)])
+                    .sum();
+                sums.add(v, s.values[i * w + l], eps);
+            }
+        }
+        sums
+    }
+
     /// True when every value of the full-size record is finite in f32.
     fn storable(&self, inc: &Incidence, s: &IncidentSamples, r: usize) -> bool {
         let rec = self.record(inc, s, r);
@@ -444,8 +478,11 @@ pub fn fit_joint(
             record,
             sq_error,
             sq_reference,
+            held_out: None,
+            below_floor: false,
         }
     };
+    let eps = opts.log_epsilon;
     match opts.max_error {
         None => {
             // The best of the full-size fits (all terms, the given level and precision).
@@ -453,7 +490,9 @@ pub fn fit_joint(
                 .iter()
                 .min_by(|a, b| a.sq_error(&inc, k).total_cmp(&b.sq_error(&inc, k)))
                 .expect("at least one fit");
-            Ok((finish(best.record(&inc, s, k), opts.precision), true))
+            let mut fitted = finish(best.record(&inc, s, k), opts.precision);
+            fitted.held_out = Some(best.held_out(&inc, s, k, eps));
+            Ok((fitted, true))
         }
         Some(budget) => {
             let precisions: &[Precision] = match opts.precision {
@@ -471,23 +510,101 @@ pub fn fit_joint(
             }
             candidates.sort_by_key(|c| (c.0, c.1, c.2, c.3.code()));
             let limit = budget * budget * inc.total;
-            for (_, fi, r, prec) in candidates {
+            // Whether some model met the budget at the samples but not between them.
+            let mut fits_scatter = false;
+            for &(_, fi, r, prec) in &candidates {
                 // The prediction is exact before rounding to f32/f16: skip what cannot meet the
                 // budget, measure the rest as stored.
                 if fits[fi].sq_error(&inc, r) > limit * 1.0001 {
                     continue;
                 }
-                let fitted = finish(fits[fi].record(&inc, s, r), prec);
+                let mut fitted = finish(fits[fi].record(&inc, s, r), prec);
                 if fitted.sq_error <= limit {
-                    return Ok((fitted, true));
+                    let ho = fits[fi].held_out(&inc, s, r, eps);
+                    fitted.held_out = Some(ho);
+                    if !opts.held_out || ho.rel() <= HELD_OUT_SLACK * budget {
+                        fitted.below_floor = ho.rel() > HELD_OUT_SLACK * budget;
+                        return Ok((fitted, true));
+                    }
+                    fits_scatter = true;
+                }
+            }
+            // The most accurate model tried, for when no model meets the budget: it stands
+            // unless it predicts held-out samples much worse than the best (it fits the
+            // samples' scatter) or a smaller model already met the budget only at the samples.
+            let most = (0..fits.len())
+                .min_by(|&a, &b| {
+                    fits[a]
+                        .sq_error(&inc, k)
+                        .total_cmp(&fits[b].sq_error(&inc, k))
+                })
+                .expect("at least one fit");
+            let score = |fi: usize, r: usize| {
+                let ho = fits[fi].held_out(&inc, s, r, eps);
+                ho.rel().powi(2) + ho.log().powi(2)
+            };
+            let overfits = opts.held_out && {
+                let best = candidates
+                    .iter()
+                    .filter(|c| c.3 == opts.precision)
+                    .map(|c| score(c.1, c.2))
+                    .fold(f64::INFINITY, f64::min);
+                score(most, k) > HELD_OUT_OVERFIT * best
+            };
+            if opts.held_out && (fits_scatter || overfits) {
+                // No model meets the budget between the samples: the noise (or the sampling)
+                // sets a floor above it. Keep the smallest model that predicts held-out samples
+                // within HELD_OUT_PLATEAU of the best (score log² + rel²): where the held-out
+                // error stops improving, bytes stop being spent. Among those, a model whose
+                // stored values lose what the fit found (a huge amplitude on a lobe between the
+                // samples leaves the rest of an f16 record under its scale) is passed over.
+                let mut ranked: Vec<(f64, usize, usize, usize)> = candidates
+                    .iter()
+                    .filter(|c| c.3 == opts.precision)
+                    .map(|&(bytes, fi, r, _)| {
+                        let ho = fits[fi].held_out(&inc, s, r, eps);
+                        (ho.rel().powi(2) + ho.log().powi(2), bytes, fi, r)
+                    })
+                    .collect();
+                let best = ranked.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
+                // Within the plateau by bytes, then the rest by score.
+                ranked.sort_by(|a, b| {
+                    let (pa, pb) = (
+                        a.0 <= best * HELD_OUT_PLATEAU,
+                        b.0 <= best * HELD_OUT_PLATEAU,
+                    );
+                    pb.cmp(&pa)
+                        .then(if pa && pb {
+                            a.1.cmp(&b.1)
+                        } else {
+                            std::cmp::Ordering::Equal
+                        })
+                        .then(a.0.total_cmp(&b.0))
+                        .then(a.1.cmp(&b.1))
+                });
+                // First pass: models that are also non-negative over the whole hemisphere (an
+                // SH series extrapolated past the last sampled θo can dip below 0, which the
+                // decoder would have to clamp); second pass: any.
+                for need_positive in [true, false] {
+                    for &(_, _, fi, r) in &ranked {
+                        let mut fitted = finish(fits[fi].record(&inc, s, r), opts.precision);
+                        let predicted = fits[fi].sq_error(&inc, r);
+                        if fitted.sq_error > 1.1 * predicted + 1e-12 * inc.total {
+                            continue;
+                        }
+                        if need_positive && ctx.minimum_on_hemisphere(&fitted.record) < 0.0 {
+                            continue;
+                        }
+                        fitted.held_out = Some(fits[fi].held_out(&inc, s, r, eps));
+                        fitted.below_floor = true;
+                        return Ok((fitted, true));
+                    }
                 }
             }
             // Nothing met the budget: the most accurate model tried, in f32.
-            let most = fits
-                .iter()
-                .min_by(|a, b| a.sq_error(&inc, k).total_cmp(&b.sq_error(&inc, k)))
-                .expect("at least one fit");
-            Ok((finish(most.record(&inc, s, k), Precision::F32), false))
+            let mut fitted = finish(fits[most].record(&inc, s, k), Precision::F32);
+            fitted.held_out = Some(fits[most].held_out(&inc, s, k, eps));
+            Ok((fitted, false))
         }
     }
 }

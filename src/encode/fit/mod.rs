@@ -8,6 +8,7 @@
 //! `spec/EVALUATION.md`, section "How the encoder fits (informative)".
 
 mod context;
+pub mod factor;
 pub mod joint;
 mod options;
 mod paper;

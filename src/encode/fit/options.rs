@@ -59,4 +59,23 @@ pub struct JointOptions {
     pub precision: Precision,
     /// Relative error budget per incidence, if any.
     pub max_error: Option<f64>,
+    /// With a budget, also hold each candidate to it at samples the fit did not see: a model is
+    /// taken only when its leave-one-out error is within [`HELD_OUT_SLACK`] times the budget;
+    /// when none is, the model with the lowest leave-one-out error (never bytes spent fitting
+    /// noise). Without it, the budget is met at the samples alone.
+    pub held_out: bool,
+    /// ε of the log error (`EVALUATION.md`, "Held-out error"), for the held-out figures.
+    pub log_epsilon: f64,
 }
+
+/// How far above the budget a model's leave-one-out error may be for the model to be taken.
+pub const HELD_OUT_SLACK: f64 = 1.5;
+
+/// Where no model meets the budget between the samples, models whose held-out score (log² +
+/// rel²) is within this factor of the best count as equally good, and the smallest is kept.
+pub const HELD_OUT_PLATEAU: f64 = 1.10;
+
+/// Where no model meets the budget even at the samples, the most accurate one is kept (its
+/// family cannot do better) unless its held-out score exceeds the best by this factor: then it
+/// fits the samples' scatter, and the held-out choice above applies.
+pub const HELD_OUT_OVERFIT: f64 = 1.03;

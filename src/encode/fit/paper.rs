@@ -94,6 +94,8 @@ impl FitContext {
             record,
             sq_error,
             sq_reference,
+            held_out: None,
+            below_floor: false,
         })
     }
 
