@@ -146,7 +146,10 @@ fn a_looser_budget_gives_a_smaller_file_and_an_impossible_one_is_reported() {
     let sizes: Vec<usize> = [0.0005, 0.005, 0.02, 0.1]
         .iter()
         .map(|&e| {
-            let enc = encode_default(&set, |o| o.max_error = Some(e));
+            let enc = encode_default(&set, |o| {
+                o.max_error = Some(e);
+                o.budget_given = true;
+            });
             let errs: Vec<f32> = enc.material.records.iter().map(|r| r.rel_error).collect();
             assert!(
                 errs.iter().all(|x| (*x as f64) <= e),
@@ -164,6 +167,9 @@ fn a_looser_budget_gives_a_smaller_file_and_an_impossible_one_is_reported() {
         sizes[3] < sizes[0],
         "the loosest budget is not smaller: {sizes:?}"
     );
-    let e = encode_default(&set, |o| o.max_error = Some(1e-9));
+    let e = encode_default(&set, |o| {
+        o.max_error = Some(1e-9);
+        o.budget_given = true;
+    });
     assert_eq!(e.unmet.len(), 3, "a 1e-9 budget cannot be met");
 }

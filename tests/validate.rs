@@ -23,6 +23,8 @@ fn held_out_errors_follow_the_protocol() {
     let v = ValidateOptions {
         folds: 4,
         leave_incidence_out: true,
+        dense_grid: true,
+        ..ValidateOptions::default()
     };
     let r = validate(&set, &EncodeOptions::default(), &v).unwrap();
     assert_eq!(r.incidences.len(), 3);
@@ -45,6 +47,9 @@ fn held_out_errors_follow_the_protocol() {
     let mid = r.incidences[1].left_out.unwrap();
     assert!(mid.rel() < 0.1, "30° left out: {}", mid.rel());
     assert!(r.epsilon > 0.0 && r.bytes > 0);
+    let d = r.dense.unwrap();
+    assert_eq!(d.values, 19 * 36 * 72 * 16);
+    assert_eq!(d.not_finite, 0);
 }
 
 #[test]
