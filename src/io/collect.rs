@@ -98,6 +98,12 @@ pub(crate) enum Place {
     Pixel { row: u32, column: u32 },
     /// An index into arrays handed over in memory (the Python binding's columns), 0-based.
     Index(u64),
+    /// A grid node of an RGL file: stored incidence (θi index, φi index), node row and column.
+    Node {
+        incidence: [u32; 2],
+        row: u32,
+        column: u32,
+    },
 }
 
 pub(crate) fn build_sample_set(
@@ -119,6 +125,14 @@ pub(crate) fn build_sample_set(
             )
         }
         Place::Index(i) => format!("{}[{i}]", names[s.file as usize]),
+        Place::Node {
+            incidence: [t, p],
+            row,
+            column,
+        } => format!(
+            "{}: incidence (theta_i[{t}], phi_i[{p}]), grid node (row {row}, column {column})",
+            names[s.file as usize]
+        ),
     };
     let f = f64::from_bits;
     for w in samples.windows(2) {
@@ -139,7 +153,7 @@ pub(crate) fn build_sample_set(
     }
     let report = ReadReport {
         negative_values: samples.iter().filter(|s| s.value < 0.0).count(),
-        missing_pixels: 0,
+        ..ReadReport::default()
     };
     // Split into directions (runs of equal 4-angle keys).
     let mut reference: Option<(Vec<u64>, usize)> = None;
