@@ -104,6 +104,9 @@ pub(crate) enum Place {
         row: u32,
         column: u32,
     },
+    /// A sample an RGL file's own interpolation gave where its grid leaves a gap: stored
+    /// incidence (θi index, φi index) and the sample's number among that incidence's fills.
+    Fill { incidence: [u32; 2], index: u32 },
 }
 
 pub(crate) fn build_sample_set(
@@ -131,6 +134,13 @@ pub(crate) fn build_sample_set(
             column,
         } => format!(
             "{}: incidence (theta_i[{t}], phi_i[{p}]), grid node (row {row}, column {column})",
+            names[s.file as usize]
+        ),
+        Place::Fill {
+            incidence: [t, p],
+            index,
+        } => format!(
+            "{}: incidence (theta_i[{t}], phi_i[{p}]), interpolated sample {index}",
             names[s.file as usize]
         ),
     };

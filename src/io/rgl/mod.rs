@@ -24,6 +24,8 @@
 //!   last kept incidence (about 80°) and 90° the decoder answers with the nearest stored one;
 //! * grid nodes above the horizon (cos θo > 0; Mitsuba's eval is 0 below), all of them up to
 //!   90°;
+//! * where the grid leaves gaps (no node within 5°, on a 5° grid up to θo = 87.5°), samples of
+//!   the file's own interpolation, as Mitsuba evaluates it ([`fill_gaps`]);
 //! * one sample per direction: the 32 nodes of the θm = 0 column are all the mirror direction
 //!   and the rows φm − φi = ±180° coincide, so nodes sharing a direction (to 1e−6°) are
 //!   averaged (their spread is 0.5–12% at the pole, where Mitsuba's own value depends on float
@@ -65,6 +67,13 @@ pub const MAGIC: &[u8; 12] = b"tensor_file\0";
 /// Stored incidences above this θi (degrees) are left out by [`collect_rgl`]: the module
 /// documentation says why.
 pub const MAX_THETA_I: f64 = 85.0;
+
+/// Gap filling (see [`fill_gaps`]): candidate directions on a grid of this step (degrees) in
+/// θo (from half a step to 90° minus half a step) and φo ...
+pub const FILL_STEP_DEG: f64 = 5.0;
+
+/// ... are added where no grid node lies within this angle (degrees).
+pub const FILL_GAP_DEG: f64 = 5.0;
 
 /// The wavelengths (nm) at which spectra made from RGB are sampled: 380–780 nm every 10 nm,
 /// the CIE tables' range. The sigmoid spectra are smooth (three parameters), so 10 nm loses
@@ -136,17 +145,29 @@ pub(crate) fn collect_rgl(
         Channels::Rgb => UPSAMPLED_WAVELENGTHS.to_vec(),
     };
     let nc = bsdf.channel_count();
-    let (mut clamped, mut worst_fit, mut directions) = (0usize, 0f64, 0usize);
+    let (mut clamped, mut worst_fit, mut directions, mut filled) = (0usize, 0f64, 0usize, 0usize);
     for s in &kept {
         let (ti, pi) = (s.theta_i.to_bits(), s.phi_i.to_bits());
+        let incidence = [s.index[0] as u32, s.index[1] as u32];
+        let (fill_dirs, fill_values) = fill_gaps(&bsdf, s).map_err(here)?;
         directions += s.directions.len();
-        for (k, d) in s.directions.iter().enumerate() {
+        filled += fill_dirs.len();
+        let nodes = s.directions.iter().enumerate().map(|(k, d)| {
             let place = Place::Node {
-                incidence: [s.index[0] as u32, s.index[1] as u32],
+                incidence,
                 row: s.nodes[k][0],
                 column: s.nodes[k][1],
             };
-            let values = &s.values[k * nc..(k + 1) * nc];
+            (place, d, &s.values[k * nc..(k + 1) * nc])
+        });
+        let fills = fill_dirs.iter().enumerate().map(|(k, d)| {
+            let place = Place::Fill {
+                incidence,
+                index: k as u32,
+            };
+            (place, d, &fill_values[k * nc..(k + 1) * nc])
+        });
+        for (place, d, values) in nodes.chain(fills) {
             let spectrum: Vec<f64> = match &upsampler {
                 None => values.to_vec(),
                 Some(up) => {
@@ -183,7 +204,11 @@ pub(crate) fn collect_rgl(
             degrees_list(left_out.iter().map(|s| s.theta_i), 6)
         );
     }
-    what += "; grid nodes below the horizon dropped, nodes sharing a direction averaged";
+    what += &format!(
+        "; grid nodes below the horizon dropped, nodes sharing a direction averaged; {filled} \
+         samples added from the file's own interpolation (Mitsuba's) on a {FILL_STEP_DEG}° grid \
+         where no node lay within {FILL_GAP_DEG}°"
+    );
     if upsampler.is_some() {
         what += &format!(
             "; RGB made spectral (rgb_to_spectrum), {clamped} colours with a negative component \
@@ -193,7 +218,8 @@ pub(crate) fn collect_rgl(
     report.provenance.push((format!("rgl:{base}"), what));
     let mut note = format!(
         "{name}: RGL measurement \"{}\", {} of {} stored incidences (θi = {used}°), {directions} \
-         outgoing directions, {} wavelengths",
+         outgoing directions from the grid and {filled} from the file's interpolation where the \
+         grid leaves gaps over {FILL_GAP_DEG}°, {} wavelengths",
         bsdf.description.trim(),
         kept.len(),
         kept.len() + left_out.len(),
@@ -226,6 +252,50 @@ pub(crate) fn collect_rgl(
     }
     report.notes.push(note);
     Ok(())
+}
+
+/// Directions of a regular grid (θo = 2.5°, 7.5°, … 87.5°; φo every 5°, fewer toward the
+/// pole) that lie more than [`FILL_GAP_DEG`] from every direction of `s`, with the file's own
+/// value there: Mitsuba's `measured` evaluation (inverse warp, bilinear in the warped grid),
+/// which [`Evaluator`] reproduces. The warped grid puts nodes where the VNDF is dense, so far
+/// from the specular peak (backward and near the horizon at high θi) it leaves gaps of up to
+/// 38° between nodes (and none above θo ≈ 85° at θi = 0); a fit left free there overshoots
+/// (cc_ibiza_sunset: 8.5·10⁴ 1/sr at the horizon without the fill, 203 with it, where its
+/// largest measured value is 213). A ring closer to the horizon (89.5°) was tried: it bounds
+/// the fit there too, but Mitsuba's values in that ring carry 1/cos θo and pulled the fit of
+/// the measured nodes of white paper from 8% to 29%, so the fill stops at 87.5°. Returns the
+/// directions and `channel_count` values each.
+pub fn fill_gaps(
+    bsdf: &RglBsdf,
+    s: &IncidenceSamples,
+) -> std::result::Result<(Vec<[f64; 2]>, Vec<f64>), RglError> {
+    let eval = bsdf.evaluator(s.index[0], s.index[1])?;
+    let nc = bsdf.channel_count();
+    let unit = |t: f64, p: f64| {
+        let (t, p) = (t.to_radians(), p.to_radians());
+        [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()]
+    };
+    let have: Vec<[f64; 3]> = s.directions.iter().map(|d| unit(d[0], d[1])).collect();
+    let cos_gap = FILL_GAP_DEG.to_radians().cos();
+    let (mut dirs, mut values) = (Vec::new(), Vec::new());
+    let mut out = vec![0.0; nc];
+    let rings = (90.0 / FILL_STEP_DEG).round() as usize;
+    for t in (0..rings).map(|i| (i as f64 + 0.5) * FILL_STEP_DEG) {
+        // About FILL_STEP_DEG apart along the ring too.
+        let n = ((360.0 * t.to_radians().sin() / FILL_STEP_DEG).round() as usize).max(6);
+        for j in 0..n {
+            let p = 360.0 * j as f64 / n as f64;
+            let w = unit(t, p);
+            let near = have
+                .iter()
+                .any(|h| h[0] * w[0] + h[1] * w[1] + h[2] * w[2] >= cos_gap);
+            if !near && eval.eval(t, p, &mut out) {
+                dirs.push([t, p]);
+                values.extend_from_slice(&out);
+            }
+        }
+    }
+    Ok((dirs, values))
 }
 
 /// Angles as `0, 27.67, 39.86` (`digits` decimals, trailing zeros dropped).
