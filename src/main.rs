@@ -41,7 +41,8 @@ wide: theta_i,phi_i,theta_o,phi_o,400,410,...           (one column per waveleng
 RGL material database files (rgl.epfl.ch/materials, Dupuy & Jakob 2018; what Mitsuba 3's \
 `measured` plugin loads): each stored incidence's warped grid is turned into real outgoing \
 directions. Incidences above 85° (the files' last, 89.999995°) are left out, grid nodes below the \
-horizon dropped, nodes sharing a direction averaged. `*_spec.bsdf` gives spectra at the file's \
+horizon dropped, nodes sharing a direction averaged, and where the grid leaves no node within 5° \
+the file's own interpolation (Mitsuba's evaluation) is sampled on a 5° grid. `*_spec.bsdf` gives spectra at the file's \
 wavelengths; `*_rgb.bsdf` holds only linear sRGB and is refused unless --rgb-to-spectrum says how \
 to make spectra of it.\n\n\
 Examples:\n  sbrdf encode material.csv -o material.sbrdf\n  \

@@ -347,7 +347,7 @@ fn cli_reports_bad_slices_and_writes_nothing() {
     std::fs::create_dir(tmp.path().join("empty")).unwrap();
     let o = sbrdf(&["encode", "empty", "-o", "out.sbrdf"], tmp.path());
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("no .exr or .csv files"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no .exr, .csv or .bsdf files"));
     // Two slices of the same incidence give the same sample twice: the CSV reader's check.
     let inc = [("sbrdf.thetaI", 15.0), ("sbrdf.phiI", 0.0)];
     let one = custom_exr(&[("T.550nm", 1.0)], &inc, (4, 2));

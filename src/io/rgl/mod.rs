@@ -6,7 +6,7 @@
 //! *warped* square: a grid node `s = (col/(R−1), row/(R−1))` is the image, under the inverse
 //! of the VNDF's marginal/conditional warp, of a half-vector parameter `u = (√(2θm/π),
 //! (φm − φi)/2π + ½)` (φm absolute for anisotropic files). This module runs the warp forward
-//! for every node ([`warp`]), reflects the incident direction about that half vector to get
+//! for every node (`warp.rs`), reflects the incident direction about that half vector to get
 //! the outgoing direction, and returns what Mitsuba 3's `measured` plugin returns there divided
 //! by cos θo: the BRDF in 1/sr, `value · NDF(u) / (4 σ(θi, φi)) / cos θo` (the NDF/σ factor
 //! when the file's `jacobian` flag is set). Written from the paper and the tensor-file layout;
@@ -17,7 +17,7 @@
 //! `theta_i`/`phi_i` parameterise Mitsuba's `si.wi`, the same unit vector
 //! (sin θi cos φi, sin θi sin φi, cos θi), so the stored angles are taken as they are.
 //!
-//! What `sbrdf encode` takes from a file ([`collect_rgl`]), and why:
+//! What `sbrdf encode` takes from a file (`collect_rgl`), and why:
 //! * stored incidences up to [`MAX_THETA_I`] (85°). RGL files end with θi = 1.5707962 rad
 //!   (89.999995°, cos θi = 7.5e−8): there many nodes lie within 1e−8 of the horizon, values
 //!   reach 1e6–1e9 in 1/sr, and Mitsuba itself returns NaN or 0 for some of them. Between the
@@ -64,7 +64,7 @@ use std::path::Path;
 /// The first 12 bytes of every tensor file.
 pub const MAGIC: &[u8; 12] = b"tensor_file\0";
 
-/// Stored incidences above this θi (degrees) are left out by [`collect_rgl`]: the module
+/// Stored incidences above this θi (degrees) are left out by `sbrdf encode`: the module
 /// documentation says why.
 pub const MAX_THETA_I: f64 = 85.0;
 
