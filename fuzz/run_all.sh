@@ -6,12 +6,13 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-600}"
-mkdir -p fuzz/corpus/decode fuzz/corpus/csv fuzz/corpus/exr fuzz/corpus/astm
+mkdir -p fuzz/corpus/decode fuzz/corpus/csv fuzz/corpus/exr fuzz/corpus/astm fuzz/corpus/rgl
 cp samples/golden/*.sbrdf samples/ggx_slices.sbrdf fuzz/corpus/decode/
 cp samples/golden/*.csv fuzz/corpus/csv/
 cp samples/ggx_slices/*.exr fuzz/corpus/exr/
 cp tests/data/cornell/*.astm fuzz/corpus/astm/
-for target in decode csv exr astm; do
+cp tests/data/rgl/tiny_rgb.bsdf fuzz/corpus/rgl/
+for target in decode csv exr astm rgl; do
   echo "== fuzz $target for $seconds s"
   RUSTC_BOOTSTRAP=1 cargo fuzz run "$target" "fuzz/corpus/$target" -- \
     -max_total_time="$seconds" -rss_limit_mb=2048 2>&1 | grep -E "^(Done|==|INFO: Seed)|crash|ERROR" || true

@@ -33,18 +33,27 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Fit sampled BRDFs (CSV, spectral-EXR slices, ASTM E1392 text) and write an .sbrdf file.
+    /// Fit sampled BRDFs (CSV, spectral-EXR slices, ASTM E1392 text, RGL .bsdf) and write an .sbrdf file.
     #[command(
         after_help = "CSV layouts (found by header name; '#' lines are comments):\n  \
 long: theta_i,phi_i,theta_o,phi_o,wavelength_nm,value   (one sample a row)\n  \
 wide: theta_i,phi_i,theta_o,phi_o,400,410,...           (one column per wavelength; '400nm' works too)\n\n\
-Other inputs: spectral-EXR slices (.exr, or a folder of them) and ASTM E1392 text (.astm: keyword \
+Other inputs: spectral-EXR slices (.exr, or a folder of them), ASTM E1392 text (.astm: keyword \
 lines, NUM_POINTS, VARS theta_i,phi_i,theta_s,phi_s,400nm,...; angles in radians unless \
-ANGLE_UNITS DEGREES); the ASTM header is kept in the file's metadata.\n\n\
+ANGLE_UNITS DEGREES; the header is kept in the file's metadata) and \
+RGL material database files (rgl.epfl.ch/materials, Dupuy & Jakob 2018; what Mitsuba 3's \
+`measured` plugin loads): each stored incidence's warped grid is turned into real outgoing \
+directions. Incidences above 85° (the files' last, 89.999995°) are left out, grid nodes below the \
+horizon dropped, nodes sharing a direction averaged, and where the grid leaves no node within 5° \
+the file's own interpolation (Mitsuba's evaluation) is sampled on a 5° grid. `*_spec.bsdf` gives spectra at the file's \
+wavelengths; `*_rgb.bsdf` holds only linear sRGB and is refused unless --rgb-to-spectrum says how \
+to make spectra of it.\n\n\
 Examples:\n  sbrdf encode material.csv -o material.sbrdf\n  \
 sbrdf encode ti*.csv -o m.sbrdf --sh-level 2 --precision f16 --metadata source=lab42\n  \
 sbrdf encode material.csv -o direct.sbrdf --peak none --sh-level 4\n  \
-sbrdf encode acryl_blue.astm -o acryl.sbrdf"
+sbrdf encode acryl_blue.astm -o acryl.sbrdf\n  \
+sbrdf encode satin_rosaline_spec.bsdf -o satin.sbrdf\n  \
+sbrdf encode satin_rosaline_rgb.bsdf -o satin.sbrdf --rgb-to-spectrum jakob-hanika-2019"
     )]
     Encode(encode::EncodeArgs),
     /// Write the reconstruction as CSV, EXR slices or ASTM text, at a reference file's positions

@@ -9,9 +9,9 @@
                   "wavelength_nm": ..., "value": ...}, "out.sbrdf", max_error=0.01)
 
 Everything runs in the Rust crate `sbrdf`; errors raise `sbrdf.Error` (a ValueError) with the
-command line's messages.
+command line's messages. `import sbrdf.mitsuba` registers the BSDF type `sbrdf` with Mitsuba 3.
 """
 
-from ._sbrdf import Error, Material, __version__, encode, open
+from ._sbrdf import Error, Material, __version__, encode, open, read_rgl
 
-__all__ = ["Error", "Material", "encode", "open", "__version__"]
+__all__ = ["Error", "Material", "encode", "open", "read_rgl", "__version__"]

@@ -1,11 +1,15 @@
 //! The `sbrdf._sbrdf` extension module: a thin layer over the `sbrdf` crate. Decoding, encoding,
 //! validation and messages are the crate's; this file only moves arrays and errors across.
 
-use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLikeDyn, PyArrayMethods};
+use numpy::{
+    AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLikeDyn, PyArrayMethods,
+    PyUntypedArrayMethods,
+};
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
+use sbrdf::decode::color::Illuminant;
 use sbrdf::encode::settings::{encode_samples, EncodeSettings};
 use sbrdf::Decoder;
 use std::path::PathBuf;
@@ -91,30 +95,73 @@ impl Material {
 
     /// ρ(wi, wo, λ) in 1/sr, shape (N, M), float32: wi and wo are unit vectors in the local
     /// frame (z the normal; wi toward the light, wo toward the viewer), shape (N, 3) or (3,);
-    /// wavelengths in nm, shape (M,). Below the horizon, 0. The GIL is released while it runs.
+    /// wavelengths in nm, shape (M,) for every row, or (N, M) (or (1, M)) for a list per row,
+    /// as a spectral renderer draws them per path. Outside the file's wavelength range the
+    /// end values are held. Below the horizon, 0. The GIL is released while it runs.
     fn eval<'py>(
         &self,
         py: Python<'py>,
         wi: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
         wo: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
-        wavelengths: PyArrayLike1<'py, f32, AllowTypeChange>,
+        wavelengths: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let wi = rows::<3>("wi", &wi)?;
         let wo = rows::<3>("wo", &wo)?;
         let n = broadcast(("wi", wi.len()), ("wo", wo.len()))?;
-        let wl: Vec<f32> = wavelengths.as_array().iter().copied().collect();
-        let m = wl.len();
+        let wv = wavelengths.as_array();
+        let (wl_rows, m) = match wv.shape() {
+            [m] => (1, *m),
+            [r, m] => (*r, *m),
+            s => {
+                return Err(Error::new_err(format!(
+                    "wavelengths: expected shape (M,) or (N, M), got {s:?}"
+                )))
+            }
+        };
+        let n = if wv.ndim() == 2 {
+            broadcast(("wi and wo", n), ("wavelengths", wl_rows))?
+        } else {
+            n
+        };
+        let wl: Vec<f32> = wv.iter().copied().collect();
         let dec = &self.dec;
         let out = py.allow_threads(|| {
             let mut out = vec![0.0f32; n * m];
             if m > 0 {
                 for (i, row) in out.chunks_mut(m).enumerate() {
-                    dec.eval(at(&wi, i), at(&wo, i), &wl, row);
+                    let r = if wl_rows == 1 { 0 } else { i };
+                    dec.eval(at(&wi, i), at(&wo, i), &wl[r * m..(r + 1) * m], row);
                 }
             }
             out
         });
         PyArray1::from_vec(py, out).reshape([n, m])
+    }
+
+    /// ρ(wi, wo) as linear sRGB (1/sr), shape (N, 3), float32: the spectrum evaluated at
+    /// 380–780 nm every 5 nm and integrated against the CIE 1931 2° observer under D65, then the
+    /// sRGB matrix (`Decoder::eval_linear_srgb`): a spectrum constant at 1 gives (1, 1, 1).
+    /// Saturated spectra can give negative components (outside the sRGB gamut); they are
+    /// returned as they are. Shapes of wi and wo as for `eval`. Releases the GIL.
+    fn eval_rgb<'py>(
+        &self,
+        py: Python<'py>,
+        wi: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
+        wo: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let wi = rows::<3>("wi", &wi)?;
+        let wo = rows::<3>("wo", &wo)?;
+        let n = broadcast(("wi", wi.len()), ("wo", wo.len()))?;
+        let dec = &self.dec;
+        let out = py.allow_threads(|| {
+            let mut out = Vec::with_capacity(3 * n);
+            for i in 0..n {
+                let rgb = dec.eval_linear_srgb(at(&wi, i), at(&wo, i), Illuminant::D65);
+                out.extend(rgb.map(|v| v as f32));
+            }
+            out
+        });
+        PyArray1::from_vec(py, out).reshape([n, 3])
     }
 
     /// Importance sampling of wo for wi (shape (N, 3) or (3,)) from uniform numbers u in
@@ -202,6 +249,57 @@ fn open(py: Python<'_>, path: PathBuf) -> PyResult<Material> {
     Ok(Material { dec, name, bytes })
 }
 
+/// What the RGL reader makes of an RGL material-database file (`.bsdf`, the tensor files
+/// Mitsuba 3's `measured` plugin loads): a dict with `description`, `channels` ("rgb" or
+/// "spectral"), `wavelengths` (nm, spectral files), and `incidences`, a list with one dict per
+/// stored incidence with θi ≤ `max_theta_i` degrees: `theta_index`, `theta_i`, `phi_i`
+/// (degrees), `theta_o`, `phi_o` (degrees, shape (K,): the outgoing directions above the
+/// horizon, nodes sharing a direction averaged), `nodes` (K, 2) (grid row and column of each,
+/// column 0 being the mirror direction), `values` (K, C) float64, the BRDF in 1/sr (RGB or one
+/// column per wavelength) exactly as read, not converted. What `encode` reads from the file.
+#[pyfunction]
+#[pyo3(signature = (path, max_theta_i = sbrdf::io::rgl::MAX_THETA_I))]
+fn read_rgl<'py>(py: Python<'py>, path: PathBuf, max_theta_i: f64) -> PyResult<Bound<'py, PyDict>> {
+    use sbrdf::io::rgl::{Channels, RglBsdf};
+    let name = path.display().to_string();
+    let bytes = std::fs::read(&path).map_err(|e| Error::new_err(format!("{name}: {e}")))?;
+    let (bsdf, incs) = py
+        .allow_threads(|| {
+            let b = RglBsdf::from_bytes(&bytes)?;
+            let s = b.samples(max_theta_i, 90.0)?;
+            Ok((b, s))
+        })
+        .map_err(|e: sbrdf::io::rgl::RglError| Error::new_err(format!("{name}: {e}")))?;
+    let d = PyDict::new(py);
+    d.set_item("description", bsdf.description.clone())?;
+    match &bsdf.channels {
+        Channels::Rgb => d.set_item("channels", "rgb")?,
+        Channels::Spectral { wavelengths } => {
+            d.set_item("channels", "spectral")?;
+            d.set_item("wavelengths", PyArray1::from_vec(py, wavelengths.clone()))?;
+        }
+    }
+    let nc = bsdf.channel_count();
+    let list = PyList::empty(py);
+    for s in incs {
+        let k = s.directions.len();
+        let e = PyDict::new(py);
+        e.set_item("theta_index", s.index[0])?;
+        e.set_item("theta_i", s.theta_i)?;
+        e.set_item("phi_i", s.phi_i)?;
+        let to: Vec<f64> = s.directions.iter().map(|d| d[0]).collect();
+        let po: Vec<f64> = s.directions.iter().map(|d| d[1]).collect();
+        e.set_item("theta_o", PyArray1::from_vec(py, to))?;
+        e.set_item("phi_o", PyArray1::from_vec(py, po))?;
+        let nodes: Vec<u32> = s.nodes.iter().flatten().copied().collect();
+        e.set_item("nodes", PyArray1::from_vec(py, nodes).reshape([k, 2])?)?;
+        e.set_item("values", PyArray1::from_vec(py, s.values).reshape([k, nc])?)?;
+        list.append(e)?;
+    }
+    d.set_item("incidences", list)?;
+    Ok(d)
+}
+
 /// An option value as the command line would spell it.
 fn option_text(name: &str, v: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
     if let Ok(b) = v.extract::<bool>() {
@@ -275,7 +373,7 @@ fn encode(
             })?
         };
         let (set, report) = py
-            .allow_threads(|| sbrdf::io::read_inputs(&paths))
+            .allow_threads(|| sbrdf::io::read_inputs_with(&paths, &settings.read))
             .map_err(err)?;
         let names = paths.iter().map(|p| p.display().to_string()).collect();
         (set, report, names)
@@ -308,6 +406,7 @@ fn _sbrdf(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Material>()?;
     m.add_function(wrap_pyfunction!(open, m)?)?;
     m.add_function(wrap_pyfunction!(encode, m)?)?;
+    m.add_function(wrap_pyfunction!(read_rgl, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -205,3 +205,57 @@ def test_sample_and_pdf_agree_with_each_other_and_integrate_to_one():
     assert abs(integral - 1) < 0.02, integral
     with pytest.raises(sbrdf.Error, match=r"shape \(N, 2\)"):
         m.sample(wi, np.zeros((3, 3)))
+
+
+def test_per_row_wavelengths_and_rgb():
+    """eval with a wavelength list per row (as a spectral renderer draws them) is eval row by
+    row; eval_rgb is the spectrum at 380–780 nm / 5 nm through CIE 1931 under D65."""
+    m = sbrdf.open(ROOT / "samples/ggx_slices.sbrdf")
+    rng = np.random.default_rng(5)
+    wi = np.array([direction(t, p) for t, p in rng.uniform([0, 0], [80, 360], (40, 2))])
+    wo = np.array([direction(t, p) for t, p in rng.uniform([0, 0], [80, 360], (40, 2))])
+    wl = rng.uniform(360, 830, (40, 4))
+    rows = m.eval(wi, wo, wl)
+    for i in (0, 17, 39):
+        np.testing.assert_array_equal(rows[i], m.eval(wi[i], wo[i], wl[i])[0])
+    np.testing.assert_array_equal(m.eval(wi, wo, wl[:1]), m.eval(wi, wo, wl[0]))
+    with pytest.raises(sbrdf.Error, match="wavelengths"):
+        m.eval(wi, wo, wl[:3])
+    # Outside the file's 400–700 nm the end values are held.
+    ends = m.eval(wi, wo, [300.0, 400.0, 700.0, 900.0])
+    np.testing.assert_array_equal(ends[:, 0], ends[:, 1])
+    np.testing.assert_array_equal(ends[:, 2], ends[:, 3])
+    t = np.loadtxt(ROOT / "samples/cie1931_2deg_d65_380_780_5nm.csv", delimiter=",", skiprows=3)
+    lam, xb, yb, zb, e = t.T
+    s = m.eval(wi, wo, lam).astype(np.float64)
+    xyz = np.stack([s @ (e * xb), s @ (e * yb), s @ (e * zb)], 1) / np.sum(e * yb)
+    mat = np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415],
+                    [0.0557, -0.2040, 1.0570]])
+    np.testing.assert_allclose(m.eval_rgb(wi, wo), xyz @ mat.T, rtol=1e-5, atol=1e-7)
+
+
+RGL = ROOT / "tests/data/rgl/satin_rosaline_rgb.bsdf"
+
+
+def test_read_rgl_and_encode_it(tmp_path):
+    d = sbrdf.read_rgl(RGL)
+    assert d["channels"] == "rgb" and "Rosaline" in d["description"]
+    assert [round(i["theta_i"], 2) for i in d["incidences"]] == [
+        0.0, 27.49, 39.74, 49.92, 59.38, 68.77, 78.68]
+    inc = d["incidences"][1]
+    k = len(inc["theta_o"])
+    assert inc["values"].shape == (k, 3) and inc["nodes"].shape == (k, 2)
+    assert len(sbrdf.read_rgl(RGL, max_theta_i=90.0)["incidences"]) == 8
+    with pytest.raises(sbrdf.Error, match="satin_rosaline_spec.bsdf"):
+        sbrdf.encode(str(RGL), tmp_path / "x.sbrdf")
+    out = sbrdf.encode(str(RGL), tmp_path / "x.sbrdf", rgb_to_spectrum="jakob-hanika-2019",
+                       incident_max=30)
+    assert any("RGL measurement" in msg for msg in out["messages"])
+    meta = sbrdf.open(tmp_path / "x.sbrdf").info
+    assert "jakob-hanika-2019" in json.dumps(meta)
+    with pytest.raises(sbrdf.Error, match="rgb-to-spectrum"):
+        sbrdf.encode(str(RGL), tmp_path / "y.sbrdf", rgb_to_spectrum="smits-1999")
+    with pytest.raises(sbrdf.Error, match="byte"):
+        bad = tmp_path / "cut.bsdf"
+        bad.write_bytes(RGL.read_bytes()[:1000])
+        sbrdf.read_rgl(bad)

@@ -64,7 +64,9 @@ pub enum PrecisionArg {
 #[derive(Args)]
 pub struct EncodeArgs {
     /// Inputs: CSV files (long or wide layout), spectral-EXR slices (one per incident
-    /// direction), ASTM E1392 text, or folders of them; all are merged.
+    /// Inputs: CSV files (long or wide layout), spectral-EXR slices (one per incident
+    /// direction), ASTM E1392 text, RGL material-database measurements (`*_spec.bsdf`;
+    /// `*_rgb.bsdf` with --rgb-to-spectrum), or folders of them; all are merged.
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
     /// Output .sbrdf file (written atomically).
@@ -130,6 +132,13 @@ pub struct EncodeOptionArgs {
     /// Keep only incident directions with θi ≤ DEG (what a scene's lights reach).
     #[arg(long, value_name = "DEG")]
     pub incident_max: Option<f64>,
+    /// Accept RGB-only measurements (RGL `*_rgb.bsdf`) by making a spectrum of each colour with
+    /// this published method, recorded in the file's metadata. Without it they are refused:
+    /// use the material's `*_spec.bsdf` file. jakob-hanika-2019: a sigmoid of a quadratic in λ
+    /// whose linear sRGB under D65 is the colour (what Mitsuba 3 does with RGB reflectances);
+    /// it reproduces the colour, not the measured spectrum.
+    #[arg(long, value_name = "METHOD", value_parser = ["jakob-hanika-2019"])]
+    pub rgb_to_spectrum: Option<String>,
 }
 
 impl EncodeOptionArgs {
@@ -192,6 +201,13 @@ impl EncodeOptionArgs {
                 .map(|w| settings::parse_window("wavelengths", w))
                 .transpose()?,
             incident_max: a.incident_max,
+            read: sbrdf::io::ReadOptions {
+                rgb_to_spectrum: a
+                    .rgb_to_spectrum
+                    .as_deref()
+                    .map(settings::parse_rgb_to_spectrum)
+                    .transpose()?,
+            },
         };
         Ok(settings)
     }
@@ -199,7 +215,7 @@ impl EncodeOptionArgs {
 
 pub fn cmd_encode(a: EncodeArgs) -> Result<()> {
     let settings = a.options.settings()?;
-    let (set, report) = sbrdf::io::read_inputs(&a.inputs)?;
+    let (set, report) = sbrdf::io::read_inputs_with(&a.inputs, &settings.read)?;
     let inputs: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
     let outcome = settings::encode_samples(set, &report, &inputs, &settings)?;
     for m in &outcome.messages {

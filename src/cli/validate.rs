@@ -50,7 +50,7 @@ fn json(s: Option<&ErrorSums>) -> serde_json::Value {
 
 pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
     let settings = a.options.settings()?;
-    let (set, report) = sbrdf::io::read_inputs(&a.inputs)?;
+    let (set, report) = sbrdf::io::read_inputs_with(&a.inputs, &settings.read)?;
     let set = if settings.wavelengths.is_some() || settings.incident_max.is_some() {
         set.restricted(settings.wavelengths, settings.incident_max)
             .map_err(Error::Parameter)?

@@ -168,8 +168,43 @@ pub struct ReadReport {
     /// EXR pixels skipped as not measured (NaN or mask 0).
     pub missing_pixels: usize,
     /// What the files said about themselves that the encoded file should keep (ASTM header
-    /// keywords as `astm.KEY`), appended to the metadata's provenance after `--metadata`.
+    /// keywords as `astm.KEY`; what an RGL file held and how it was converted), appended to the
+    /// metadata's provenance after `--metadata`.
     pub provenance: Vec<(String, String)>,
-    /// Decisions a reader took that the user should hear about, one line each.
+    /// Decisions a reader took that the user should hear about, one line each, no prefix.
     pub notes: Vec<String>,
+}
+
+/// How inputs are read, beyond their own content.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// Turn RGB-only measurements (RGL `_rgb.bsdf` files) into spectra by this method; `None`
+    /// refuses them, naming the spectral file to use instead.
+    pub rgb_to_spectrum: Option<RgbToSpectrum>,
+}
+
+/// Published methods that make a spectrum from a colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RgbToSpectrum {
+    /// Jakob & Hanika 2019, "A Low-Dimensional Function Space for Efficient Spectral
+    /// Upsampling": a sigmoid of a quadratic in λ whose linear sRGB under D65 is the colour
+    /// (what Mitsuba 3's spectral variants do with RGB reflectances).
+    JakobHanika2019,
+}
+
+impl RgbToSpectrum {
+    /// The name `--rgb-to-spectrum` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            RgbToSpectrum::JakobHanika2019 => "jakob-hanika-2019",
+        }
+    }
+
+    /// Every method, for messages.
+    pub const ALL: [RgbToSpectrum; 1] = [RgbToSpectrum::JakobHanika2019];
+
+    /// Parses a `--rgb-to-spectrum` value.
+    pub fn parse(s: &str) -> Option<RgbToSpectrum> {
+        Self::ALL.into_iter().find(|m| m.name() == s.trim())
+    }
 }

@@ -5,8 +5,7 @@
 use crate::encode::encoder::{encode, EncodeOptions, Encoded, ModelChoice, DEFAULT_MAX_ERROR};
 use crate::encode::fit::LobeFamily;
 use crate::encode::fit::{CriticalAngle, PeakMode};
-use crate::encode::samples::ReadReport;
-use crate::encode::samples::SampleSet;
+use crate::encode::samples::{ReadOptions, ReadReport, RgbToSpectrum, SampleSet};
 use crate::error::{Error, Result};
 use crate::model::spectral::SpectralBasis;
 use crate::model::Precision;
@@ -26,10 +25,13 @@ pub struct EncodeSettings {
     /// `--wavelengths MIN:MAX`.
     pub wavelengths: Option<(f64, f64)>,
     pub incident_max: Option<f64>,
+    /// How the inputs are read (`--rgb-to-spectrum`): for the caller's reader, which runs
+    /// before [`encode_samples`].
+    pub read: ReadOptions,
 }
 
 /// The option names `EncodeSettings::set` knows, as the command line spells them.
-pub const NAMES: [&str; 14] = [
+pub const NAMES: [&str; 15] = [
     "model",
     "basis",
     "terms",
@@ -44,6 +46,7 @@ pub const NAMES: [&str; 14] = [
     "no-sample-positions",
     "wavelengths",
     "incident-max",
+    "rgb-to-spectrum",
 ];
 
 fn bad(name: &str, value: &str, expected: &str) -> Error {
@@ -135,6 +138,14 @@ pub fn parse_lobe(s: &str) -> Result<LobeFamily> {
     }
 }
 
+/// A `--rgb-to-spectrum` method.
+pub fn parse_rgb_to_spectrum(s: &str) -> Result<RgbToSpectrum> {
+    RgbToSpectrum::parse(s).ok_or_else(|| {
+        let names: Vec<&str> = RgbToSpectrum::ALL.iter().map(|m| m.name()).collect();
+        bad("rgb-to-spectrum", s, &names.join(" or "))
+    })
+}
+
 /// `KEY=VALUE`.
 pub fn parse_metadata(s: &str) -> Result<(String, String)> {
     let (k, v) = s
@@ -187,6 +198,9 @@ impl EncodeSettings {
                         .parse()
                         .map_err(|_| bad(&key, value, "degrees"))?,
                 )
+            }
+            "rgb-to-spectrum" => {
+                self.read.rgb_to_spectrum = Some(parse_rgb_to_spectrum(value)?);
             }
             _ => {
                 return Err(Error::Parameter(format!(
@@ -323,6 +337,7 @@ mod tests {
             ("no_sample_positions", "1"),
             ("wavelengths", "450:650"),
             ("incident_max", "60"),
+            ("rgb_to_spectrum", "jakob-hanika-2019"),
         ] {
             s.set(k, v).unwrap();
         }
@@ -339,11 +354,13 @@ mod tests {
         );
         assert!(!s.encoder.sample_positions);
         assert_eq!(s.wavelengths, Some((450.0, 650.0)));
+        assert_eq!(s.read.rgb_to_spectrum, Some(RgbToSpectrum::JakobHanika2019));
         for (k, v) in [
             ("basis", "wavelet"),
             ("terms", "-1"),
             ("max-error", "0"),
             ("wavelengths", "650:450"),
+            ("rgb-to-spectrum", "smits"),
             ("colour", "red"),
         ] {
             let e = s.set(k, v).unwrap_err().to_string();

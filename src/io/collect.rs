@@ -98,6 +98,15 @@ pub(crate) enum Place {
     Pixel { row: u32, column: u32 },
     /// An index into arrays handed over in memory (the Python binding's columns), 0-based.
     Index(u64),
+    /// A grid node of an RGL file: stored incidence (θi index, φi index), node row and column.
+    Node {
+        incidence: [u32; 2],
+        row: u32,
+        column: u32,
+    },
+    /// A sample an RGL file's own interpolation gave where its grid leaves a gap: stored
+    /// incidence (θi index, φi index) and the sample's number among that incidence's fills.
+    Fill { incidence: [u32; 2], index: u32 },
 }
 
 pub(crate) fn build_sample_set(
@@ -119,6 +128,21 @@ pub(crate) fn build_sample_set(
             )
         }
         Place::Index(i) => format!("{}[{i}]", names[s.file as usize]),
+        Place::Node {
+            incidence: [t, p],
+            row,
+            column,
+        } => format!(
+            "{}: incidence (theta_i[{t}], phi_i[{p}]), grid node (row {row}, column {column})",
+            names[s.file as usize]
+        ),
+        Place::Fill {
+            incidence: [t, p],
+            index,
+        } => format!(
+            "{}: incidence (theta_i[{t}], phi_i[{p}]), interpolated sample {index}",
+            names[s.file as usize]
+        ),
     };
     let f = f64::from_bits;
     for w in samples.windows(2) {
