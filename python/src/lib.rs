@@ -91,7 +91,8 @@ impl Material {
 
     /// ρ(wi, wo, λ) in 1/sr, shape (N, M), float32: wi and wo are unit vectors in the local
     /// frame (z the normal; wi toward the light, wo toward the viewer), shape (N, 3) or (3,);
-    /// wavelengths in nm, shape (M,). Below the horizon, 0. The GIL is released while it runs.
+    /// wavelengths in nm, shape (M,). Below the horizon, 0. The GIL is released while it runs;
+    /// the rows go through the decoder's batch entry point (`Decoder::eval_batch`).
     fn eval<'py>(
         &self,
         py: Python<'py>,
@@ -105,15 +106,13 @@ impl Material {
         let wl: Vec<f32> = wavelengths.as_array().iter().copied().collect();
         let m = wl.len();
         let dec = &self.dec;
+        // The batch entry point: the incident side once per run of rows with the same wi (all
+        // of them when wi is one vector), the spectral basis once per wavelength.
         let out = py.allow_threads(|| {
             let mut out = vec![0.0f32; n * m];
-            if m > 0 {
-                for (i, row) in out.chunks_mut(m).enumerate() {
-                    dec.eval(at(&wi, i), at(&wo, i), &wl, row);
-                }
-            }
-            out
+            dec.eval_batch(&wi, &wo, &wl, &mut out).map(|()| out)
         });
+        let out = out.map_err(err)?;
         PyArray1::from_vec(py, out).reshape([n, m])
     }
 
@@ -170,7 +169,8 @@ impl Material {
     /// The description `sbrdf info --json` prints, as a dict.
     #[getter]
     fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let text = sbrdf::encode::info::to_json(self.dec.material(), &self.name, self.bytes).to_string();
+        let text =
+            sbrdf::encode::info::to_json(self.dec.material(), &self.name, self.bytes).to_string();
         py.import("json")?.call_method1("loads", (text,))
     }
 

@@ -14,12 +14,12 @@ const BASIS_VALUES: usize = 1024;
 /// below the horizon).
 type Cached = Option<(QueryFrame, Incident)>;
 
-/// `out[i·M..(i+1)·M]` = ρ(wi\[i\], wo\[i\], λ) for i < n, M = `wavelengths.len()`; a slice of
-/// length 1 serves every pair. The caller checked the lengths.
+/// `out[i·M..(i+1)·M]` = ρ(wi(i), wo(i), λ) for i < n, M = `wavelengths.len()`. The caller
+/// checked that `out` holds n·M values.
 pub(crate) fn eval_batch(
     ev: &Evaluator,
-    wi: &[[f32; 3]],
-    wo: &[[f32; 3]],
+    wi: impl Fn(usize) -> [f32; 3],
+    wo: impl Fn(usize) -> [f32; 3],
     n: usize,
     wavelengths: &[f32],
     out: &mut [f32],
@@ -48,7 +48,7 @@ pub(crate) fn eval_batch(
     let mut shapes = [LobeShape::default(); crate::model::material::MAX_LOBES];
     let mut cached: Cached = None;
     for (i, row) in out[..n * m].chunks_exact_mut(m).enumerate() {
-        let a = wi[if wi.len() == 1 { 0 } else { i }];
+        let a = wi(i);
         let bits = a.map(f32::to_bits);
         if key != Some(bits) {
             key = Some(bits);
@@ -64,7 +64,7 @@ pub(crate) fn eval_batch(
             row.fill(0.0);
             continue;
         };
-        let Some(b) = unit(wo[if wo.len() == 1 { 0 } else { i }]).filter(|v| v[2] >= 0.0) else {
+        let Some(b) = unit(wo(i)).filter(|v| v[2] >= 0.0) else {
             row.fill(0.0);
             continue;
         };

@@ -175,8 +175,29 @@ impl Decoder {
                 out.len()
             )));
         }
-        super::batch::eval_batch(&self.evaluator, wi, wo, n, wavelengths, out);
+        let (wi_step, wo_step) = (usize::from(wi.len() != 1), usize::from(wo.len() != 1));
+        super::batch::eval_batch(
+            &self.evaluator,
+            |i| wi[i * wi_step],
+            |i| wo[i * wo_step],
+            n,
+            wavelengths,
+            out,
+        );
         Ok(())
+    }
+
+    /// [`Decoder::eval_batch`] over vectors read through accessors (the C ABI's strided
+    /// arrays): pair i is (`wi(i)`, `wo(i)`) for i < `n`. `out` must hold n·M values.
+    pub(crate) fn eval_batch_with(
+        &self,
+        n: usize,
+        wi: impl Fn(usize) -> [f32; 3],
+        wo: impl Fn(usize) -> [f32; 3],
+        wavelengths: &[f32],
+        out: &mut [f32],
+    ) {
+        super::batch::eval_batch(&self.evaluator, wi, wo, n, wavelengths, out)
     }
 
     /// Computes the importance-sampling weights now rather than on the first call of
