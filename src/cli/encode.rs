@@ -163,7 +163,26 @@ pub fn cmd_encode(a: EncodeArgs) -> Result<()> {
     };
     let (set, report) = sbrdf::io::read_inputs(&a.inputs)?;
     let inputs: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
-    let outcome = settings::encode_samples(set, &report, &inputs, &settings)?;
+    // A progress bar on stderr, drawn only when it is a terminal (indicatif hides it otherwise).
+    let bar = std::sync::OnceLock::<indicatif::ProgressBar>::new();
+    let progress = |done: usize, total: usize| {
+        let b = bar.get_or_init(|| {
+            let b = indicatif::ProgressBar::new(total as u64);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "sbrdf: fitting {bar:32} {pos}/{len} incidences, {elapsed} (about {eta} left)",
+            ) {
+                b.set_style(style);
+            }
+            b
+        });
+        b.set_position(done as u64);
+    };
+    let outcome =
+        settings::encode_samples_with_progress(set, &report, &inputs, &settings, Some(&progress));
+    if let Some(b) = bar.get() {
+        b.finish_and_clear();
+    }
+    let outcome = outcome?;
     for m in &outcome.messages {
         eprintln!("sbrdf: {m}");
     }

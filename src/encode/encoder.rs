@@ -187,9 +187,21 @@ pub struct Encoded {
     pub notes: Vec<String>,
 }
 
+/// Called as incidences finish: (incidences fitted, incidences in all), from any thread.
+pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
+
 /// Fits every incident direction (in parallel; the result does not depend on the thread count,
 /// since each incidence is fitted alone and results are collected in order).
 pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
+    encode_with_progress(set, opts, None)
+}
+
+/// [`encode`], reporting progress as incidences finish (the command line draws a bar).
+pub fn encode_with_progress(
+    set: &SampleSet,
+    opts: &EncodeOptions,
+    progress: Option<Progress>,
+) -> Result<Encoded> {
     set.validate()
         .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
     let (terms, table) = opts.terms_and_table(set);
@@ -210,6 +222,8 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         precision: opts.precision,
         max_error: opts.max_error,
     };
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let total = set.incidences.len();
     let fitted: Vec<_> = set
         .incidences
         .par_iter()
@@ -251,6 +265,12 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
                 let (e, r) = ctx.measure(&f.record, s);
                 f.sq_error = e;
                 f.record.rel_error = stored_error(rel(e, r));
+            }
+            if let Some(p) = progress {
+                p(
+                    done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
+                    total,
+                );
             }
             Ok((f, note))
         })

@@ -2,7 +2,7 @@
 //! selection, defaults, the error budget's verdict): one place that the command line and the
 //! Python binding both call, so that both validate, default and report alike.
 
-use crate::encode::encoder::{encode, EncodeOptions, Encoded, DEFAULT_MAX_ERROR};
+use crate::encode::encoder::{EncodeOptions, Encoded, DEFAULT_MAX_ERROR};
 use crate::encode::fit::LobeFamily;
 use crate::encode::fit::{CriticalAngle, PeakMode};
 use crate::encode::samples::ReadReport;
@@ -228,6 +228,17 @@ pub fn encode_samples(
     inputs: &[String],
     s: &EncodeSettings,
 ) -> Result<Outcome> {
+    encode_samples_with_progress(set, report, inputs, s, None)
+}
+
+/// [`encode_samples`], reporting progress as incidences finish.
+pub fn encode_samples_with_progress(
+    set: SampleSet,
+    report: &ReadReport,
+    inputs: &[String],
+    s: &EncodeSettings,
+    progress: Option<crate::encode::encoder::Progress>,
+) -> Result<Outcome> {
     let set = if s.wavelengths.is_some() || s.incident_max.is_some() {
         set.restricted(s.wavelengths, s.incident_max)
             .map_err(|e| Error::Parameter(format!("{}: {e}", inputs.join(", "))))?
@@ -249,7 +260,7 @@ pub fn encode_samples(
         ));
     }
     let opts = s.options(inputs);
-    let encoded = encode(&set, &opts)?;
+    let encoded = crate::encode::encoder::encode_with_progress(&set, &opts, progress)?;
     messages.extend(encoded.notes.iter().map(|n| format!("note: {n}")));
     if !encoded.unmet.is_empty() {
         let m = &encoded.material;

@@ -379,6 +379,93 @@ fn record_bytes(
     12 + 40 + terms * sh_count(level) * s + lobe
 }
 
+/// The fits of one incidence, computed when first needed: a shape search per family at the low
+/// and the high level, a least-squares fit per (level, lobe). With a budget the candidates are
+/// visited smallest first and the visit usually ends long before the largest models, so most
+/// shape searches (the high level's above all) are never run. What is computed is what an eager
+/// search would compute, so the choice is the same.
+struct Lazy<'a> {
+    inc: &'a Incidence,
+    families: &'a [LobeFamily],
+    levels: Vec<usize>,
+    lo: usize,
+    hi: usize,
+    /// Per family: the shape searched at the low and at the high level.
+    shapes: Vec<[Option<Vec<f64>>; 2]>,
+    /// Per (level, lobe): fit index = level index · (1 + families) + (0: no lobe, 1 + family).
+    fits: Vec<Option<LevelFit>>,
+}
+
+impl<'a> Lazy<'a> {
+    fn new(inc: &'a Incidence, opts: &'a JointOptions) -> Self {
+        let levels: Vec<usize> = match opts.max_error {
+            Some(_) => (0..=opts.max_sh_level).collect(),
+            None => vec![opts.max_sh_level],
+        };
+        let (lo, hi) = (levels[0], levels[levels.len() - 1]);
+        let per_level = 1 + opts.families.len();
+        Lazy {
+            inc,
+            families: &opts.families,
+            fits: (0..levels.len() * per_level).map(|_| None).collect(),
+            shapes: vec![[None, None]; opts.families.len()],
+            levels,
+            lo,
+            hi,
+        }
+    }
+
+    fn per_level(&self) -> usize {
+        1 + self.families.len()
+    }
+
+    /// (level, lobe family) of fit `fi`.
+    fn describe(&self, fi: usize) -> (usize, Option<LobeFamily>) {
+        let level = self.levels[fi / self.per_level()];
+        let j = fi % self.per_level();
+        (level, (j > 0).then(|| self.families[j - 1]))
+    }
+
+    /// Shapes are searched at two levels only, the lowest and the highest tried, and each level
+    /// reuses the shape found at the nearer one: the best shape moves little with the SH level,
+    /// and the search is most of the cost.
+    fn shape(&mut self, f: usize, level: usize) -> Vec<f64> {
+        let (lo, hi) = (self.lo, self.hi);
+        let high = level * 2 >= lo + hi;
+        let which = if lo == hi { 1 } else { usize::from(high) };
+        if self.shapes[f][which].is_none() {
+            let at = if which == 1 { hi } else { lo.max(1).min(hi) };
+            self.shapes[f][which] = Some(search_shape(self.inc, at, self.families[f]));
+        }
+        self.shapes[f][which].clone().expect("just searched")
+    }
+
+    fn fit(&mut self, fi: usize) -> &LevelFit {
+        if self.fits[fi].is_none() {
+            let (level, family) = self.describe(fi);
+            let lobe = family.map(|fam| {
+                let f = fi % self.per_level() - 1;
+                (fam, self.shape(f, level))
+            });
+            self.fits[fi] = Some(fit_level(self.inc, level, lobe));
+        }
+        self.fits[fi].as_ref().expect("just fitted")
+    }
+
+    /// Index of the fit with the smallest predicted error at all `k` terms (every fit computed).
+    fn most_accurate(&mut self, k: usize) -> usize {
+        let inc = self.inc;
+        let mut best = (f64::INFINITY, 0);
+        for fi in 0..self.fits.len() {
+            let e = self.fit(fi).sq_error(inc, k);
+            if e < best.0 {
+                best = (e, fi);
+            }
+        }
+        best.1
+    }
+}
+
 /// Fits one incidence: the full model, or with a budget the smallest model (by bytes) that
 /// meets it. Returns the fit and whether the budget was met.
 pub fn fit_joint(
@@ -388,40 +475,22 @@ pub fn fit_joint(
 ) -> Result<(Fitted, bool), String> {
     let inc = prepare(ctx, s)?;
     let k = ctx.spectral.terms;
-    let levels: Vec<usize> = match opts.max_error {
-        Some(_) => (0..=opts.max_sh_level).collect(),
-        None => vec![opts.max_sh_level],
-    };
-    // Shapes are searched at two levels only, the lowest and the highest tried, and each level
-    // reuses the shape found at the nearer one: the best shape moves little with the SH level,
-    // and the search is most of the cost.
-    let (lo, hi) = (levels[0], levels[levels.len() - 1]);
-    let shapes: Vec<(LobeFamily, Vec<f64>, Vec<f64>)> = opts
-        .families
+    let mut lazy = Lazy::new(&inc, opts);
+    // Everything a measurement needs but the record, once per incidence: the samples, and the
+    // angles to the peak direction as records store it (f32).
+    let rho = DMatrix::from_row_slice(inc.n, ctx.synthesis.ncols(), &s.values);
+    let probe = stored_peak(&inc);
+    let stored_peak = dir_from_deg(probe.0 as f64, probe.1 as f64);
+    let alpha: Vec<f64> = inc
+        .dirs
         .iter()
-        .map(|&fam| {
-            let at_hi = search_shape(&inc, hi, fam);
-            let at_lo = if lo == hi {
-                at_hi.clone()
-            } else {
-                search_shape(&inc, lo.max(1).min(hi), fam)
-            };
-            (fam, at_lo, at_hi)
-        })
+        .map(|d| angle_between(*d, stored_peak))
         .collect();
-    let mut fits = Vec::new();
-    for &level in &levels {
-        fits.push(fit_level(&inc, level, None));
-        for (fam, at_lo, at_hi) in &shapes {
-            let shape = if level * 2 < lo + hi { at_lo } else { at_hi };
-            fits.push(fit_level(&inc, level, Some((*fam, shape.clone()))));
-        }
-    }
     let finish = |mut record: IncidentRecord, precision: Precision| {
         if precision == Precision::F16 {
             quantize_record_f16(&mut record);
         }
-        let (sq_error, sq_reference) = ctx.measure(&record, s);
+        let (sq_error, sq_reference) = ctx.measure_parts(&record, &inc.y, &inc.dirs, &alpha, &rho);
         record.rel_error = stored_error(rel(sq_error, sq_reference));
         Fitted {
             met: true,
@@ -432,12 +501,11 @@ pub fn fit_joint(
     };
     match opts.max_error {
         None => {
-            // The best of the full-size fits (all terms, the given level and precision).
-            let best = fits
-                .iter()
-                .min_by(|a, b| a.sq_error(&inc, k).total_cmp(&b.sq_error(&inc, k)))
-                .expect("at least one fit");
-            Ok((finish(best.record(&inc, s, k), opts.precision), true))
+            // The best of the full-size fits (all terms, the given level and precision); ties
+            // to the first, as the eager search had it.
+            let best = lazy.most_accurate(k);
+            let record = lazy.fit(best).record(&inc, s, k);
+            Ok((finish(record, opts.precision), true))
         }
         Some(budget) => {
             let precisions: &[Precision] = match opts.precision {
@@ -445,11 +513,11 @@ pub fn fit_joint(
                 Precision::F32 => &[Precision::F32],
             };
             let mut candidates = Vec::new();
-            for (fi, f) in fits.iter().enumerate() {
+            for fi in 0..lazy.fits.len() {
+                let (level, family) = lazy.describe(fi);
                 for r in 1..=k {
                     for &prec in precisions {
-                        let bytes = record_bytes(r, f.level, f.lobe.as_ref().map(|l| l.0), prec);
-                        candidates.push((bytes, fi, r, prec));
+                        candidates.push((record_bytes(r, level, family, prec), fi, r, prec));
                     }
                 }
             }
@@ -458,20 +526,26 @@ pub fn fit_joint(
             for (_, fi, r, prec) in candidates {
                 // The prediction is exact before rounding to f32/f16: skip what cannot meet the
                 // budget, measure the rest as stored.
-                if fits[fi].sq_error(&inc, r) > limit * 1.0001 {
+                let fit = lazy.fit(fi);
+                if fit.sq_error(&inc, r) > limit * 1.0001 {
                     continue;
                 }
-                let fitted = finish(fits[fi].record(&inc, s, r), prec);
+                let fitted = finish(fit.record(&inc, s, r), prec);
                 if fitted.sq_error <= limit {
                     return Ok((fitted, true));
                 }
             }
             // Nothing met the budget: the most accurate model tried, in f32.
-            let most = fits
-                .iter()
-                .min_by(|a, b| a.sq_error(&inc, k).total_cmp(&b.sq_error(&inc, k)))
-                .expect("at least one fit");
-            Ok((finish(most.record(&inc, s, k), Precision::F32), false))
+            let best = lazy.most_accurate(k);
+            let record = lazy.fit(best).record(&inc, s, k);
+            Ok((finish(record, Precision::F32), false))
         }
     }
+}
+
+/// The peak direction as every record of this incidence stores it, (θp, φp) in f32.
+fn stored_peak(inc: &Incidence) -> (f32, f32) {
+    let (tp, pp) = inc.peak;
+    let pp = if tp < 1e-9 { 0.0 } else { pp };
+    ((tp + 0.0) as f32, wrap_phi(pp as f32 as f64) as f32 % 360.0)
 }
