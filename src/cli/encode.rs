@@ -100,6 +100,15 @@ pub struct EncodeArgs {
     /// Do not store the outgoing sample positions (smaller file; `decode` then needs --like).
     #[arg(long)]
     pub no_sample_positions: bool,
+    /// What the metadata keeps: `full` (the encoder, inputs, every option, provenance, the
+    /// error), `short` (the encoder, options that differ from the defaults, provenance, the
+    /// error) or `none` (no metadata chunk).
+    #[arg(long, value_name = "LEVEL", default_value = "full")]
+    pub meta: String,
+    /// The newest format version the file may use: 1.1 (stores evenly spaced wavelengths as a
+    /// range) or 1.0 (readable by every 1.0 reader). A file using no 1.1 feature is 1.0.
+    #[arg(long, value_name = "VERSION", default_value = "1.1")]
+    pub format: String,
     /// Keep only the input's wavelengths within MIN:MAX nm (what a scene renders).
     #[arg(long, value_name = "MIN:MAX")]
     pub wavelengths: Option<String>,
@@ -138,6 +147,8 @@ pub fn cmd_encode(a: EncodeArgs) -> Result<()> {
             })
             .collect(),
         sample_positions: !a.no_sample_positions,
+        meta: settings::parse_meta(&a.meta)?,
+        format_minor: settings::parse_format(&a.format)?,
         provenance: a
             .metadata
             .iter()

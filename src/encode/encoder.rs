@@ -42,6 +42,34 @@ pub struct EncodeOptions {
     pub provenance: Vec<(String, String)>,
     /// Names of the input files, recorded in the metadata.
     pub inputs: Vec<String>,
+    /// What the `meta` chunk keeps (`--meta`).
+    pub meta: MetaLevel,
+    /// The newest minor format version the file may use (`--format 1.0` gives files every 1.0
+    /// reader reads; 1.1 stores evenly spaced wavelengths as a range).
+    pub format_minor: u16,
+}
+
+/// What the file's `meta` chunk keeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum MetaLevel {
+    /// The encoder, the inputs, every option that shaped the file, provenance, the overall
+    /// error (the default).
+    #[default]
+    Full,
+    /// The encoder, the options that differ from its defaults, provenance, the overall error.
+    Short,
+    /// No `meta` chunk.
+    None,
+}
+
+impl MetaLevel {
+    pub fn name(self) -> &'static str {
+        match self {
+            MetaLevel::Full => "full",
+            MetaLevel::Short => "short",
+            MetaLevel::None => "none",
+        }
+    }
 }
 
 /// The default error budget per incidence (relative L2).
@@ -81,6 +109,8 @@ impl Default for EncodeOptions {
             sample_positions: true,
             provenance: Vec::new(),
             inputs: Vec::new(),
+            meta: MetaLevel::Full,
+            format_minor: crate::format::VERSION_MINOR,
         }
     }
 }
@@ -298,15 +328,18 @@ pub fn encode_with_progress(
             t.values.truncate(used * t.nodes.len());
         }
     }
-    let metadata = metadata_json(opts, rel_error);
+    let metadata = match opts.meta {
+        MetaLevel::None => None,
+        level => Some(metadata_json(opts, rel_error, level == MetaLevel::Short)),
+    };
     let material = Material {
-        version_minor: crate::format::VERSION_MINOR,
+        version_minor: opts.format_minor.min(crate::format::VERSION_MINOR),
         spectral,
         sh_level: opts.effective_sh_level(),
         isotropic: set.is_isotropic(),
         wavelengths: set.wavelengths.iter().map(|&w| w as f32).collect(),
         records,
-        metadata: Some(metadata),
+        metadata,
         // Positions beyond the format's per-set limit are not stored (decode then needs --like).
         sample_positions: (opts.sample_positions
             && set
@@ -327,8 +360,9 @@ pub fn encode_with_progress(
     })
 }
 
-fn metadata_json(opts: &EncodeOptions, rel_error: f64) -> String {
-    use serde_json::{json, Map, Value};
+/// The options that shaped a file, as `meta` records them.
+fn metadata_options(opts: &EncodeOptions) -> serde_json::Map<String, serde_json::Value> {
+    use serde_json::{json, Map};
     // Only the options that shaped this file, so the metadata stays small next to the model.
     let mut options = Map::new();
     options.insert("basis".into(), json!(opts.basis.name()));
@@ -359,13 +393,30 @@ fn metadata_json(opts: &EncodeOptions, rel_error: f64) -> String {
         _ => {}
     }
     options.insert("precision".into(), json!(opts.precision.name()));
+    options
+}
+
+/// The `meta` text: compact JSON. `short` keeps only the options that differ from the
+/// encoder's defaults (and no input names).
+fn metadata_json(opts: &EncodeOptions, rel_error: f64, short: bool) -> String {
+    use serde_json::{json, Map, Value};
+    let mut options = metadata_options(opts);
+    if short {
+        // What the defaults of this encoder would write: dropped (the encoder and its version
+        // are kept, and spec/FORMAT.md §3.4 lists its defaults).
+        let defaults = metadata_options(&EncodeOptions {
+            max_error: Some(DEFAULT_MAX_ERROR),
+            ..EncodeOptions::default()
+        });
+        options.retain(|k, v| defaults.get(k) != Some(v));
+    }
     let mut v = Map::new();
     v.insert(
         "encoder".into(),
         json!(format!("sbrdf {}", env!("CARGO_PKG_VERSION"))),
     );
     v.insert("options".into(), Value::Object(options));
-    if !opts.inputs.is_empty() {
+    if !opts.inputs.is_empty() && !short {
         v.insert("inputs".into(), json!(opts.inputs));
     }
     if !opts.provenance.is_empty() {

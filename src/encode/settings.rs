@@ -29,7 +29,7 @@ pub struct EncodeSettings {
 }
 
 /// The option names `EncodeSettings::set` knows, as the command line spells them.
-pub const NAMES: [&str; 13] = [
+pub const NAMES: [&str; 15] = [
     "basis",
     "terms",
     "sh-level",
@@ -43,6 +43,8 @@ pub const NAMES: [&str; 13] = [
     "no-sample-positions",
     "wavelengths",
     "incident-max",
+    "meta",
+    "format",
 ];
 
 fn bad(name: &str, value: &str, expected: &str) -> Error {
@@ -125,6 +127,26 @@ pub fn parse_lobe(s: &str) -> Result<LobeFamily> {
     }
 }
 
+/// `full`, `short` or `none`.
+pub fn parse_meta(s: &str) -> Result<crate::encode::encoder::MetaLevel> {
+    use crate::encode::encoder::MetaLevel;
+    match s.trim() {
+        "full" => Ok(MetaLevel::Full),
+        "short" => Ok(MetaLevel::Short),
+        "none" => Ok(MetaLevel::None),
+        _ => Err(bad("meta", s, "full, short or none")),
+    }
+}
+
+/// `1.0` or `1.1`: the newest minor version a file may use.
+pub fn parse_format(s: &str) -> Result<u16> {
+    match s.trim() {
+        "1.0" => Ok(0),
+        "1.1" => Ok(1),
+        _ => Err(bad("format", s, "1.0 or 1.1")),
+    }
+}
+
 /// `KEY=VALUE`.
 pub fn parse_metadata(s: &str) -> Result<(String, String)> {
     let (k, v) = s
@@ -169,6 +191,8 @@ impl EncodeSettings {
             "metadata" => e.provenance.push(parse_metadata(value)?),
             "no-sample-positions" => e.sample_positions = !parse_bool(&key, value)?,
             "wavelengths" => self.wavelengths = Some(parse_window(&key, value)?),
+            "meta" => e.meta = parse_meta(value)?,
+            "format" => e.format_minor = parse_format(value)?,
             "incident-max" => {
                 self.incident_max = Some(
                     value
