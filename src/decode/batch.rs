@@ -51,6 +51,13 @@ pub(crate) fn eval_batch(
         let a = wi(i);
         let bits = a.map(f32::to_bits);
         if key != Some(bits) {
+            // A pair whose wi differs from the next one's is evaluated as `eval` would (keeping
+            // the incident side costs more than it saves); a run of equal wi keeps it.
+            if i + 1 >= n || wi(i + 1).map(f32::to_bits) != bits {
+                key = None;
+                single(ev, a, wo(i), basis, k, wavelengths, row);
+                continue;
+            }
             key = Some(bits);
             cached = unit(a).filter(|v| v[2] >= 0.0).map(|v| {
                 let q = ev.query_frame(v);
@@ -75,9 +82,35 @@ pub(crate) fn eval_batch(
     }
 }
 
+/// One pair on its own, as [`Evaluator::eval`] computes it, with the batch's basis values.
+#[inline(always)]
+fn single(
+    ev: &Evaluator,
+    a: [f32; 3],
+    b: [f32; 3],
+    basis: &[f64],
+    k: usize,
+    wavelengths: &[f32],
+    row: &mut [f32],
+) {
+    let (Some(a), Some(b)) = (unit(a), unit(b)) else {
+        row.fill(0.0);
+        return;
+    };
+    if a[2] < 0.0 || b[2] < 0.0 {
+        row.fill(0.0);
+        return;
+    }
+    let q = ev.query_frame(a);
+    let inc = ev.incident(q.theta, q.phi, Some(q.wi));
+    ev.outgoing(&inc, q.in_frame(b), |c| {
+        finish(ev, c, basis, k, wavelengths, row)
+    });
+}
+
 /// ρ(λ_j) = max(0, Σ_k c_k·B_k(λ_j)) from the batch's basis values (or, when there were too
 /// many to keep, as `eval` computes them).
-#[inline]
+#[inline(always)]
 fn finish(
     ev: &Evaluator,
     c: &[f64],
