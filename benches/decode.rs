@@ -1,20 +1,33 @@
 //! Decoder speed against the simplest alternative a renderer would use: a dense raw table of the
-//! same samples with bilinear lookup in (θo, φo), linear in λ, nearest stored incidence.
-//! Per query, for 1, 4 and 31 wavelengths, on a 9-incidence Phong material and a 7-incidence
-//! GGX material; plus the time to open a file. Both are measured in the same run. Importance
-//! sampling: ns per `sample` and per `pdf`, next to `eval` at one wavelength, on the same
-//! materials and incidences.
+//! same samples with bilinear lookup in (θo, φo), linear in λ, nearest stored incidence, measured
+//! in the same run. Per query, for 1, 4 and 31 wavelengths (a measured material: 1 and its 4),
+//! on a 9-incidence Phong material, a 7-incidence GGX material and the NIST PTFE measurement
+//! (encoded with the defaults; its table is the decoded material resampled on a 5° grid, since
+//! the measurement is scattered); the batch entry point on the same pairs; importance sampling
+//! (ns per `sample` and per `pdf`, next to `eval` at one wavelength); the time to open a file.
+//! Every group's figures are ns per pair (Throughput: 4096 pairs per iteration).
+//!
+//! Times are the benchmark thread's CPU time (`benches/common/cpu_time.rs`), so that other load
+//! on the machine does not count. `cargo bench --bench decode` (or a filter: `-- eval_ggx7`). The memory a decoder holds per
+//! material is printed with each material (`Decoder::resident_bytes`, checked against a
+//! counting allocator in `tests/memory.rs`).
 
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
+
+use cpu_time::CpuTime;
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use sbrdf::encode::encoder::{encode, EncodeOptions};
 use sbrdf::encode::samples::SampleSet;
 use sbrdf::io::synth::{paper_grid, sample_material, Ggx, Phong, QueryRng};
 use sbrdf::Decoder;
 
-/// The raw-table baseline: values[inc][iθ][iφ][w] on the paper's grid.
+/// The raw-table baseline: values[inc][iθ][iφ][w] on a 5° grid (θo = 2.5…87.5°, φo = 0…355°).
 struct RawTable {
     thetas: Vec<f64>,
     wavelengths: Vec<f32>,
+    /// Some(1/step) for evenly spaced wavelengths; otherwise the bracket is searched.
+    inv_step: Option<f32>,
     values: Vec<f32>,
 }
 
@@ -22,16 +35,48 @@ const NT: usize = 18;
 const NP: usize = 72;
 
 impl RawTable {
-    fn new(set: &SampleSet) -> Self {
-        let mut values = Vec::new();
-        for s in &set.incidences {
-            values.extend(s.values.iter().map(|&v| v as f32));
-        }
+    fn new(thetas: Vec<f64>, wavelengths: Vec<f32>, values: Vec<f32>) -> Self {
+        let h = wavelengths.get(1).map_or(1.0, |w| w - wavelengths[0]);
+        let even = wavelengths.windows(2).all(|p| p[1] - p[0] == h);
         RawTable {
-            thetas: set.incidences.iter().map(|s| s.theta_i).collect(),
-            wavelengths: set.wavelengths.iter().map(|&w| w as f32).collect(),
+            thetas,
+            inv_step: even.then_some(1.0 / h),
+            wavelengths,
             values,
         }
+    }
+
+    fn from_samples(set: &SampleSet) -> Self {
+        let mut values = Vec::new();
+        for s in &set.incidences {
+            assert_eq!(s.directions.len(), NT * NP);
+            values.extend(s.values.iter().map(|&v| v as f32));
+        }
+        RawTable::new(
+            set.incidences.iter().map(|s| s.theta_i).collect(),
+            set.wavelengths.iter().map(|&w| w as f32).collect(),
+            values,
+        )
+    }
+
+    /// A material given by its decoder, resampled on the grid at the file's incidences and
+    /// wavelengths (for a measurement whose directions are scattered).
+    fn resampled(dec: &Decoder) -> Self {
+        let m = dec.material();
+        let wl64: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
+        let mut values = Vec::new();
+        let mut out = vec![0.0; wl64.len()];
+        for r in &m.records {
+            for d in paper_grid(5.0, 5.0) {
+                dec.eval_deg((r.theta_i as f64, 0.0), (d[0], d[1]), &wl64, &mut out);
+                values.extend(out.iter().map(|&v| v as f32));
+            }
+        }
+        RawTable::new(
+            m.records.iter().map(|r| r.theta_i as f64).collect(),
+            m.wavelengths.clone(),
+            values,
+        )
     }
 
     fn eval(&self, wi: [f32; 3], wo: [f32; 3], wl: &[f32], out: &mut [f32]) {
@@ -59,10 +104,22 @@ impl RawTable {
         let base = inc * NT * NP * nw;
         let at = |a: usize, b: usize, w: usize| self.values[base + (a * NP + b) * nw + w];
         for (o, &l) in out.iter_mut().zip(wl) {
-            let fw = ((l - self.wavelengths[0]) / (self.wavelengths[1] - self.wavelengths[0]))
-                .clamp(0.0, (nw - 1) as f32);
-            let iw = (fw as usize).min(nw - 2);
-            let s = fw - iw as f32;
+            let (iw, s) = match self.inv_step {
+                Some(inv) => {
+                    let fw = ((l - self.wavelengths[0]) * inv).clamp(0.0, (nw - 1) as f32);
+                    let iw = (fw as usize).min(nw - 2);
+                    (iw, fw - iw as f32)
+                }
+                None => {
+                    let iw = self
+                        .wavelengths
+                        .partition_point(|&x| x <= l)
+                        .clamp(1, nw - 1)
+                        - 1;
+                    let (a, b) = (self.wavelengths[iw], self.wavelengths[iw + 1]);
+                    (iw, ((l - a) / (b - a)).clamp(0.0, 1.0))
+                }
+            };
             let bil = |w: usize| {
                 (1.0 - t) * ((1.0 - u) * at(it, ip, w) + u * at(it, ip1, w))
                     + t * ((1.0 - u) * at(it + 1, ip, w) + u * at(it + 1, ip1, w))
@@ -72,14 +129,18 @@ impl RawTable {
     }
 }
 
-fn materials() -> Vec<(&'static str, SampleSet)> {
+/// (name, decoder, file bytes, table, the wavelength counts to time).
+type Bench = (&'static str, Decoder, Vec<u8>, RawTable, Vec<usize>);
+
+fn materials() -> Vec<Bench> {
     let wl: Vec<f64> = (0..31).map(|i| 400.0 + 10.0 * i as f64).collect();
     let grid = paper_grid(5.0, 5.0);
     let phong = Phong::colorchecker("green", "white", (1.0, 15.0, 50.0), &wl).unwrap();
     let nine: Vec<(f64, f64)> = (0..9).map(|i| (10.0 * i as f64, 0.0)).collect();
     let ggx = Ggx::colorchecker(0.2, 1.0, "blue", "yellow", &wl).unwrap();
     let seven: Vec<(f64, f64)> = (0..7).map(|i| (12.0 * i as f64, 0.0)).collect();
-    vec![
+    let mut out = Vec::new();
+    for (name, set) in [
         (
             "phong9",
             sample_material(&wl, &nine, &grid, |i, o, w| phong.value(i, o, w)),
@@ -88,7 +149,27 @@ fn materials() -> Vec<(&'static str, SampleSet)> {
             "ggx7",
             sample_material(&wl, &seven, &grid, |i, o, w| ggx.value(i, o, w)),
         ),
-    ]
+    ] {
+        let enc = encode(&set, &EncodeOptions::default()).unwrap();
+        let bytes = sbrdf::write_material(&enc.material).unwrap();
+        let dec = Decoder::from_bytes(&bytes).unwrap();
+        out.push((
+            name,
+            dec,
+            bytes,
+            RawTable::from_samples(&set),
+            vec![1, 4, 31],
+        ));
+    }
+    let nist =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nist_ptfe_fr11.csv");
+    let (set, _) = sbrdf::io::csv::read_samples(&[nist]).unwrap();
+    let enc = encode(&set, &EncodeOptions::default()).unwrap();
+    let bytes = sbrdf::write_material(&enc.material).unwrap();
+    let dec = Decoder::from_bytes(&bytes).unwrap();
+    let table = RawTable::resampled(&dec);
+    out.push(("ptfe6", dec, bytes, table, vec![1, 4]));
+    out
 }
 
 /// Deterministic uniform pairs for `sample`.
@@ -103,26 +184,42 @@ fn uniforms(n: usize) -> Vec<[f32; 2]> {
     (0..n).map(|_| [next(), next()]).collect()
 }
 
-fn bench_decode(c: &mut Criterion) {
+/// `count` wavelengths over the material's range (550 nm, or the middle, for one).
+fn wavelengths(dec: &Decoder, count: usize) -> Vec<f32> {
+    let w = &dec.material().wavelengths;
+    let (lo, hi) = (w[0], w[w.len() - 1]);
+    if count == w.len() {
+        return w.clone();
+    }
+    (0..count)
+        .map(|i| {
+            if count == 1 {
+                if (lo..=hi).contains(&550.0) {
+                    550.0
+                } else {
+                    0.5 * (lo + hi)
+                }
+            } else {
+                lo + (hi - lo) * i as f32 / (count - 1) as f32
+            }
+        })
+        .collect()
+}
+
+fn bench_decode(c: &mut Criterion<CpuTime>) {
     let qs = QueryRng::new(0x2545_F491_4F6C_DD1D).direction_pairs(4096, 0.05);
-    for (name, set) in materials() {
-        let enc = encode(&set, &EncodeOptions::default()).unwrap();
-        let bytes = sbrdf::write_material(&enc.material).unwrap();
-        let dec = Decoder::from_bytes(&bytes).unwrap();
-        let raw = RawTable::new(&set);
+    let wis: Vec<[f32; 3]> = qs.iter().map(|q| q.0).collect();
+    let wos: Vec<[f32; 3]> = qs.iter().map(|q| q.1).collect();
+    // The same outgoing directions with one incident direction per run of 64 pairs (a light
+    // and the pixels of a tile, say).
+    let runs: Vec<[f32; 3]> = (0..qs.len()).map(|i| qs[i / 64 * 64].0).collect();
+    for (name, dec, bytes, raw, counts) in materials() {
         let mut g = c.benchmark_group(format!("eval_{name}"));
         g.throughput(Throughput::Elements(qs.len() as u64));
-        for count in [1usize, 4, 31] {
-            let wl: Vec<f32> = (0..count)
-                .map(|i| {
-                    if count == 1 {
-                        550.0
-                    } else {
-                        400.0 + 300.0 * i as f32 / (count - 1) as f32
-                    }
-                })
-                .collect();
+        for &count in &counts {
+            let wl = wavelengths(&dec, count);
             let mut out = vec![0.0f32; count];
+            let mut batch_out = vec![0.0f32; count * qs.len()];
             g.bench_with_input(BenchmarkId::new("sbrdf", count), &count, |b, _| {
                 b.iter(|| {
                     for (wi, wo) in &qs {
@@ -139,17 +236,42 @@ fn bench_decode(c: &mut Criterion) {
                     }
                 })
             });
+            g.bench_with_input(BenchmarkId::new("batch", count), &count, |b, _| {
+                b.iter(|| {
+                    dec.eval_batch(&wis, &wos, &wl, &mut batch_out).unwrap();
+                    black_box(&batch_out);
+                })
+            });
+            g.bench_with_input(BenchmarkId::new("batch_runs64", count), &count, |b, _| {
+                b.iter(|| {
+                    dec.eval_batch(&runs, &wos, &wl, &mut batch_out).unwrap();
+                    black_box(&batch_out);
+                })
+            });
+            g.bench_with_input(
+                BenchmarkId::new("raw_table_runs64", count),
+                &count,
+                |b, _| {
+                    b.iter(|| {
+                        for (wi, wo) in runs.iter().zip(&wos) {
+                            raw.eval(*wi, *wo, &wl, &mut out);
+                            black_box(&out);
+                        }
+                    })
+                },
+            );
         }
         g.finish();
         let us = uniforms(qs.len());
         let mut g = c.benchmark_group(format!("sampling_{name}"));
         g.throughput(Throughput::Elements(qs.len() as u64));
-        let mut one = [0.0f32];
+        let one = wavelengths(&dec, 1);
+        let mut v = [0.0f32];
         g.bench_function("eval_1", |b| {
             b.iter(|| {
                 for (wi, wo) in &qs {
-                    dec.eval(*wi, *wo, &[550.0], &mut one);
-                    black_box(&one);
+                    dec.eval(*wi, *wo, &one, &mut v);
+                    black_box(&v);
                 }
             })
         });
@@ -168,10 +290,13 @@ fn bench_decode(c: &mut Criterion) {
             })
         });
         g.finish();
+        let opened = Decoder::from_bytes(&bytes).unwrap();
         eprintln!(
-            "{name}: file {} bytes, raw table {} bytes",
+            "{name}: file {} bytes, raw table {} bytes, decoder resident {} bytes ({:.2}× the file)",
             bytes.len(),
-            raw.values.len() * 4
+            raw.values.len() * 4,
+            opened.resident_bytes(),
+            opened.resident_bytes() as f64 / bytes.len() as f64
         );
         c.bench_function(&format!("open_{name}"), |b| {
             b.iter(|| Decoder::from_bytes(black_box(&bytes)).unwrap())
@@ -179,5 +304,9 @@ fn bench_decode(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_decode);
+criterion_group! {
+    name = benches;
+    config = Criterion::default().with_measurement(CpuTime::default());
+    targets = bench_decode
+}
 criterion_main!(benches);

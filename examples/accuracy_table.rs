@@ -23,7 +23,9 @@ fn measure(sets: &[SampleSet], opts: &EncodeOptions) -> (f64, f64, f64) {
     for set in sets {
         let mut o = opts.clone();
         if o.terms.is_some() {
-            o.terms = Some(13.min(set.wavelengths.len()));
+            // The paper's 13 terms, or as many as the periodic series supports on few
+            // wavelengths (it takes λmin and λmax as one point: W − 1).
+            o.terms = Some(13.min(set.wavelengths.len().saturating_sub(1)).max(1));
         }
         let e = encode(set, &o).expect("encode");
         bytes += sbrdf::write_material(&e.material).unwrap().len();

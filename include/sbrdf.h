@@ -35,6 +35,14 @@ int  sbrdf_open_file(const char *path, sbrdf_t **out);        /* 0 on success, e
 int  sbrdf_open_memory(const uint8_t *data, size_t len, sbrdf_t **out);
 int  sbrdf_eval(const sbrdf_t *b, const float wi[3], const float wo[3],
                 const float *wavelengths_nm, size_t count, float *out);
+/* Many pairs per call (a wavefront, a tile): pair i is the 3 floats at wi + i*wi_stride and at
+ * wo + i*wo_stride (strides in floats: 3 = packed, 0 = one vector for every pair); its count
+ * values go to out[i*count ...]. The same values as sbrdf_eval pair by pair (a zero or
+ * non-finite vector gives 0 rather than an error); work that depends on wi alone is done once
+ * per run of pairs with the same wi. Thread-safe, no allocation. */
+int  sbrdf_eval_batch(const sbrdf_t *b, size_t n, const float *wi, size_t wi_stride,
+                      const float *wo, size_t wo_stride, const float *wavelengths_nm,
+                      size_t count, float *out);
 /* Importance sampling, the same for every wavelength: draws wo (toward the viewer) for wi (toward
  * the light) from u1, u2 uniform in [0, 1), and its density *pdf (1/sr, over solid angle), which
  * is exactly what sbrdf_pdf returns for that wo. wi below the horizon: wo = (0, 0, 0), *pdf = 0.

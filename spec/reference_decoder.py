@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Independent reference reader and decoder of the .sbrdf format, version 1.1.
 
-Version 1.1 adds the critical `FACT` chunk (the factor model, §3.7, EVALUATION.md "Factor
-model") and the ancillary `xval` chunk (held-out errors, §3.8) to version 1.0; files without
-them (every 1.0 file) are read and evaluated exactly as before.
+Version 1.1 adds to version 1.0 the wavelength range (HEAD flag bit 1, §3.1), the critical `FACT`
+chunk (the factor model, §3.7, EVALUATION.md "Factor model") and the ancillary `xval` chunk
+(held-out errors, §3.8); files without them (every 1.0 file) are read and evaluated exactly as
+before.
 
 Written from spec/FORMAT.md and spec/EVALUATION.md alone, without looking at the Rust
 implementation, to show that those two documents are enough to decode a file. Standard library
@@ -378,8 +379,10 @@ class SbrdfFile:
             raise malformed("%s: shorter than its 40-byte fixed part (§3.1)" % where)
         self.minor, flags, basis, res9, level, conv, k, res14 = r.take("HIBBBBHH")
         lmin, lmax, w, n = r.take("ddII")
-        if flags & ~1:
-            raise unsupported("%s: unknown flag bits 0x%x (§4)" % (where, flags & ~1))
+        # §6: flags before the length (a flag may change HEAD's layout: bit 1, §3.1).
+        if flags & ~3:
+            raise unsupported("%s: unknown flag bits 0x%x (§4)" % (where, flags & ~3))
+        wrange = bool(flags & 2)
         if basis not in (1, 2, 3):
             raise unsupported("%s: unknown spectral basis %d (§4)" % (where, basis))
         if conv != 1:
@@ -394,14 +397,22 @@ class SbrdfFile:
             raise malformed("%s: lambda_max = lambda_min needs K = 1 (§3.1)" % where)
         if not (1 <= w <= 65536 and 1 <= n <= 1 << 20):
             raise malformed("%s: W = %d or N = %d out of range (§3.1)" % (where, w, n))
-        if len(body) != 40 + 4 * w + 8 * n:
+        if wrange and w < 2:
+            raise malformed("%s: wavelength range with W = %d < 2 (§3.1)" % (where, w))
+        stored = 2 if wrange else w
+        if len(body) != 40 + 4 * stored + 8 * n:
             raise malformed("%s: length %d, layout needs %d (§3.1)"
-                            % (where, len(body), 40 + 4 * w + 8 * n))
-        waves = list(r.take("%df" % w))
+                            % (where, len(body), 40 + 4 * stored + 8 * n))
+        if wrange:
+            # §3.1: λ_i = f32(λ_0 + (i·(λ_{W−1} − λ_0))/(W − 1)), binary64, in that order.
+            first, last = r.take("2f")
+            waves = [to_f32(first + (i * (last - first)) / (w - 1)) for i in range(w)]
+        else:
+            waves = list(r.take("%df" % w))
         for i, lam in enumerate(waves):
             if not (math.isfinite(lam) and lam > 0) or (i and lam <= waves[i - 1]):
                 raise malformed("%s: wavelengths must be finite, > 0, increasing (§3.1)" % where)
-        raw = body[40 + 4 * w:]
+        raw = body[40 + 4 * stored:]
         inc = []
         for i in range(n):
             th, ph = struct.unpack_from("<ff", raw, 8 * i)

@@ -23,6 +23,7 @@ fn header_declares_exactly_the_exported_api() {
         "int sbrdf_eval(const sbrdf_t *b, const float wi[3], const float wo[3], const float *wavelengths_nm, size_t count, float *out);",
         "int sbrdf_sample(const sbrdf_t *b, const float wi[3], float u1, float u2, float wo[3], float *pdf);",
         "int sbrdf_pdf(const sbrdf_t *b, const float wi[3], const float wo[3], float *pdf);",
+        "int sbrdf_eval_batch(const sbrdf_t *b, size_t n, const float *wi, size_t wi_stride, const float *wo, size_t wo_stride, const float *wavelengths_nm, size_t count, float *out);",
         "void sbrdf_close(sbrdf_t *b);",
         "const char *sbrdf_error_message(int code);",
     ] {
@@ -53,6 +54,7 @@ fn header_declares_exactly_the_exported_api() {
         "sbrdf_eval",
         "sbrdf_sample",
         "sbrdf_pdf",
+        "sbrdf_eval_batch",
         "sbrdf_close",
         "sbrdf_error_message",
     ] {
@@ -245,4 +247,128 @@ fn c_sampling_agrees_with_the_rust_decoder_and_refuses_bad_input() {
         );
         sbrdf_close(h);
     }
+}
+
+#[test]
+fn a_batch_through_the_c_abi_is_eval_pair_by_pair() {
+    let path = CString::new(golden("ggx_3inc_default.sbrdf").to_str().unwrap()).unwrap();
+    let mut h: *mut sbrdf_t = std::ptr::null_mut();
+    assert_eq!(unsafe { sbrdf_open_file(path.as_ptr(), &mut h) }, SBRDF_OK);
+    // Six pairs, packed; the incident directions repeat in runs; one hostile pair.
+    let wi: [f32; 18] = [
+        0.3,
+        0.1,
+        0.9,
+        0.3,
+        0.1,
+        0.9,
+        0.0,
+        0.0,
+        1.0,
+        0.6,
+        -0.2,
+        0.7,
+        0.6,
+        -0.2,
+        0.7,
+        f32::NAN,
+        0.0,
+        1.0,
+    ];
+    let wo: [f32; 18] = [
+        -0.3, -0.1, 0.9, 0.2, 0.5, 0.8, 0.1, 0.0, 0.99, -0.5, 0.3, 0.8, 0.0, 0.0, 1.0, -0.2, 0.0,
+        0.9,
+    ];
+    let wl = [450.0f32, 555.0, 690.0];
+    let mut batch = [f32::NAN; 18];
+    let rc = unsafe {
+        sbrdf_eval_batch(
+            h,
+            6,
+            wi.as_ptr(),
+            3,
+            wo.as_ptr(),
+            3,
+            wl.as_ptr(),
+            3,
+            batch.as_mut_ptr(),
+        )
+    };
+    assert_eq!(rc, SBRDF_OK);
+    for i in 0..6 {
+        let mut one = [f32::NAN; 3];
+        let rc = unsafe {
+            sbrdf_eval(
+                h,
+                wi[3 * i..].as_ptr(),
+                wo[3 * i..].as_ptr(),
+                wl.as_ptr(),
+                3,
+                one.as_mut_ptr(),
+            )
+        };
+        if i == 5 {
+            assert_eq!(rc, SBRDF_ERR_ARGUMENT, "sbrdf_eval refuses a NaN vector");
+            assert_eq!(&batch[15..18], &[0.0; 3], "the batch gives 0 for it");
+        } else {
+            assert_eq!(rc, SBRDF_OK);
+            assert_eq!(&batch[3 * i..3 * i + 3], &one, "pair {i}");
+        }
+    }
+    // Stride 0: one incident direction for every pair.
+    let mut shared = [f32::NAN; 15];
+    let rc = unsafe {
+        sbrdf_eval_batch(
+            h,
+            5,
+            wi.as_ptr(),
+            0,
+            wo.as_ptr(),
+            3,
+            wl.as_ptr(),
+            3,
+            shared.as_mut_ptr(),
+        )
+    };
+    assert_eq!(rc, SBRDF_OK);
+    assert_eq!(&shared[..6], &batch[..6]);
+    // Nothing to do, and null pointers.
+    let null = std::ptr::null();
+    assert_eq!(
+        unsafe { sbrdf_eval_batch(h, 0, null, 3, null, 3, null, 3, std::ptr::null_mut()) },
+        SBRDF_OK
+    );
+    assert_eq!(
+        unsafe {
+            sbrdf_eval_batch(
+                h,
+                2,
+                null,
+                3,
+                wo.as_ptr(),
+                3,
+                wl.as_ptr(),
+                3,
+                shared.as_mut_ptr(),
+            )
+        },
+        SBRDF_ERR_NULL
+    );
+    assert_eq!(
+        unsafe {
+            sbrdf_eval_batch(
+                std::ptr::null(),
+                2,
+                wi.as_ptr(),
+                3,
+                wo.as_ptr(),
+                3,
+                wl.as_ptr(),
+                3,
+                shared.as_mut_ptr(),
+            )
+        },
+        SBRDF_ERR_NULL
+    );
+    unsafe { sbrdf_close(h) };
 }

@@ -8,10 +8,11 @@ fn golden(name: &str) -> Vec<u8> {
     std::fs::read(common::samples_dir().join("golden").join(name)).unwrap()
 }
 
-const FILES: [&str; 3] = [
+const FILES: [&str; 4] = [
     "tiny.sbrdf",
     "phong_3inc_paper.sbrdf",
     "phong_3inc_direct_f16.sbrdf",
+    "ggx_3inc_range_v11.sbrdf",
 ];
 
 #[test]
@@ -221,4 +222,90 @@ fn record_level_rules() {
     r[recd].1[8..12].copy_from_slice(&(-0.0f32).to_le_bytes());
     r[0].1[40 + 4 * 4 + 4..40 + 4 * 4 + 8].copy_from_slice(&(-0.0f32).to_le_bytes());
     assert!(read_material(&assemble(&r), &Limits::default()).is_err());
+}
+
+/// Version 1.1's wavelength range (`HEAD` flag bit 1): the wavelengths the 1.0 file of the same
+/// material lists; a file without the range stays 1.0; hostile ranges are refused without
+/// allocating for W; unknown flags are unsupported before HEAD's length is looked at.
+#[test]
+fn wavelength_ranges() {
+    let v11 = golden("ggx_3inc_range_v11.sbrdf");
+    let v10 = golden("ggx_3inc_default.sbrdf");
+    let a = read_material(&v11, &Limits::default()).unwrap();
+    let b = read_material(&v10, &Limits::default()).unwrap();
+    assert_eq!((a.version_minor, b.version_minor), (1, 0));
+    assert_eq!(
+        a.wavelengths, b.wavelengths,
+        "the range gives the listed wavelengths"
+    );
+    assert_eq!(chunks(&v11)[0].1.len(), 40 + 8 + 8 * 3);
+    // The writer uses the range only where the material allows 1.1: version 0 writes 1.0.
+    let mut as10 = a.clone();
+    as10.version_minor = 0;
+    let bytes10 = sbrdf::write_material(&as10).unwrap();
+    assert_eq!(chunks(&bytes10)[0].1.len(), 40 + 4 * 31 + 8 * 3);
+    assert_eq!(&chunks(&bytes10)[0].1[2..4], &[0, 0], "written as 1.0");
+    // Wavelengths that are not evenly spaced are listed, even in a 1.1 material.
+    let mut uneven = a.clone();
+    uneven.wavelengths[5] += 0.25;
+    if let Some(t) = &mut uneven.spectral.table {
+        t.nodes[5] = uneven.wavelengths[5] as f64;
+    }
+    let bytes = sbrdf::write_material(&uneven).unwrap();
+    assert_eq!(chunks(&bytes)[0].1.len(), 40 + 4 * 31 + 8 * 3);
+    assert_eq!(&chunks(&bytes)[0].1[2..4], &[0, 0]);
+
+    let head = |f: &dyn Fn(&mut Vec<u8>)| {
+        let mut c = chunks(&v11);
+        f(&mut c[0].1);
+        read_material(&assemble(&c), &Limits::default())
+    };
+    let malformed = |r: sbrdf::Result<sbrdf::Material>, what: &str| match r {
+        Err(Error::Format { .. }) => {}
+        other => panic!("{what}: expected malformed, got {other:?}"),
+    };
+    // W = 1 with the range flag; W beyond the format's limit (no 2^32-value allocation); a
+    // range running backwards; equal ends.
+    malformed(
+        head(&|h| h[32..36].copy_from_slice(&1u32.to_le_bytes())),
+        "W = 1",
+    );
+    malformed(
+        head(&|h| h[32..36].copy_from_slice(&u32::MAX.to_le_bytes())),
+        "W = 2^32 - 1",
+    );
+    malformed(
+        head(&|h| h[32..36].copy_from_slice(&65_537u32.to_le_bytes())),
+        "W = 65 537",
+    );
+    malformed(
+        head(&|h| {
+            let (first, last) = (h[40..44].to_vec(), h[44..48].to_vec());
+            h[40..44].copy_from_slice(&last);
+            h[44..48].copy_from_slice(&first);
+        }),
+        "decreasing range",
+    );
+    malformed(
+        head(&|h| {
+            let first = h[40..44].to_vec();
+            h[44..48].copy_from_slice(&first);
+        }),
+        "empty range",
+    );
+    // The range flag cleared: HEAD's length no longer matches.
+    malformed(head(&|h| h[4] &= !2), "range flag cleared");
+    // An unknown flag bit is unsupported, whatever HEAD's length says.
+    for bit in [2u32, 31] {
+        match head(&|h| {
+            let f = u32::from_le_bytes(h[4..8].try_into().unwrap()) | (1 << bit);
+            h[4..8].copy_from_slice(&f.to_le_bytes());
+            h.truncate(45);
+        }) {
+            Err(Error::Unsupported { message, .. }) => {
+                assert!(message.contains("flag"), "{message}")
+            }
+            other => panic!("flag bit {bit}: expected unsupported, got {other:?}"),
+        }
+    }
 }

@@ -147,7 +147,8 @@ fn a_full_disk_leaves_no_file_and_keeps_the_old_one() {
 #[test]
 fn ctrl_c_during_an_encode_leaves_the_old_output() {
     let tmp = tempfile::tempdir().unwrap();
-    // A slow encode: the default joint fit over many incidences.
+    // A slow encode: the joint fit over many incidences with a budget nothing meets, so that
+    // every shape search and fit runs (a reachable budget stops at the first fitting model).
     let set = common::paper_samples(
         15.0,
         50.0,
@@ -158,7 +159,15 @@ fn ctrl_c_during_an_encode_leaves_the_old_output() {
     std::fs::write(tmp.path().join("big.csv"), text).unwrap();
     std::fs::write(tmp.path().join("out.sbrdf"), "precious").unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_sbrdf"))
-        .args(["encode", "big.csv", "-o", "out.sbrdf"])
+        .args([
+            "encode",
+            "big.csv",
+            "-o",
+            "out.sbrdf",
+            "--max-error",
+            "1e-9",
+            "--best-effort",
+        ])
         .current_dir(tmp.path())
         .stderr(Stdio::null())
         .spawn()

@@ -97,7 +97,9 @@ impl Material {
     /// frame (z the normal; wi toward the light, wo toward the viewer), shape (N, 3) or (3,);
     /// wavelengths in nm, shape (M,) for every row, or (N, M) (or (1, M)) for a list per row,
     /// as a spectral renderer draws them per path. Outside the file's wavelength range the
-    /// end values are held. Below the horizon, 0. The GIL is released while it runs.
+    /// end values are held. Below the horizon, 0. The GIL is released while it runs; with one
+    /// list for every row the rows go through the decoder's batch entry point
+    /// (`Decoder::eval_batch`).
     fn eval<'py>(
         &self,
         py: Python<'py>,
@@ -125,16 +127,21 @@ impl Material {
         };
         let wl: Vec<f32> = wv.iter().copied().collect();
         let dec = &self.dec;
+        // The batch entry point: the incident side once per run of rows with the same wi (all
+        // of them when wi is one vector), the spectral basis once per wavelength.
         let out = py.allow_threads(|| {
             let mut out = vec![0.0f32; n * m];
+            if wl_rows == 1 {
+                return dec.eval_batch(&wi, &wo, &wl, &mut out).map(|()| out);
+            }
             if m > 0 {
                 for (i, row) in out.chunks_mut(m).enumerate() {
-                    let r = if wl_rows == 1 { 0 } else { i };
-                    dec.eval(at(&wi, i), at(&wo, i), &wl[r * m..(r + 1) * m], row);
+                    dec.eval(at(&wi, i), at(&wo, i), &wl[i * m..(i + 1) * m], row);
                 }
             }
-            out
+            Ok(out)
         });
+        let out = out.map_err(err)?;
         PyArray1::from_vec(py, out).reshape([n, m])
     }
 

@@ -126,6 +126,15 @@ pub struct EncodeOptionArgs {
     /// Do not store the outgoing sample positions (smaller file; `decode` then needs --like).
     #[arg(long)]
     pub no_sample_positions: bool,
+    /// What the metadata keeps: `full` (the encoder, inputs, every option, provenance, the
+    /// error), `short` (the encoder, options that differ from the defaults, provenance, the
+    /// error) or `none` (no metadata chunk).
+    #[arg(long, value_name = "LEVEL", default_value = "full")]
+    pub meta: String,
+    /// The newest format version the file may use: 1.1 (stores evenly spaced wavelengths as a
+    /// range) or 1.0 (readable by every 1.0 reader). A file using no 1.1 feature is 1.0.
+    #[arg(long, value_name = "VERSION", default_value = "1.1")]
+    pub format: String,
     /// Keep only the input's wavelengths within MIN:MAX nm (what a scene renders).
     #[arg(long, value_name = "MIN:MAX")]
     pub wavelengths: Option<String>,
@@ -179,6 +188,8 @@ impl EncodeOptionArgs {
                 .iter()
                 .map(|kv| settings::parse_metadata(kv))
                 .collect::<Result<_>>()?,
+            meta: settings::parse_meta(&a.meta)?,
+            format_minor: settings::parse_format(&a.format)?,
             model: match a.model {
                 ModelArg::Auto => ModelChoice::Auto,
                 ModelArg::Records => ModelChoice::Records,
@@ -217,7 +228,26 @@ pub fn cmd_encode(a: EncodeArgs) -> Result<()> {
     let settings = a.options.settings()?;
     let (set, report) = sbrdf::io::read_inputs_with(&a.inputs, &settings.read)?;
     let inputs: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
-    let outcome = settings::encode_samples(set, &report, &inputs, &settings)?;
+    // A progress bar on stderr, drawn only when it is a terminal (indicatif hides it otherwise).
+    let bar = std::sync::OnceLock::<indicatif::ProgressBar>::new();
+    let progress = |done: usize, total: usize| {
+        let b = bar.get_or_init(|| {
+            let b = indicatif::ProgressBar::new(total as u64);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "sbrdf: fitting {bar:32} {pos}/{len} incidences, {elapsed} (about {eta} left)",
+            ) {
+                b.set_style(style);
+            }
+            b
+        });
+        b.set_position(done as u64);
+    };
+    let outcome =
+        settings::encode_samples_with_progress(set, &report, &inputs, &settings, Some(&progress));
+    if let Some(b) = bar.get() {
+        b.finish_and_clear();
+    }
+    let outcome = outcome?;
     for m in &outcome.messages {
         eprintln!("sbrdf: {m}");
     }

@@ -111,6 +111,59 @@ pub unsafe extern "C" fn sbrdf_eval(
     })
 }
 
+/// ρ for `n` direction pairs in one call: pair i is the three floats at `wi + i·wi_stride` and
+/// at `wo + i·wo_stride` (strides in floats: 3 for packed vectors, 0 to use one vector for every
+/// pair), for `count` wavelengths (nm); its values go to `out[i·count .. i·count + count]`.
+/// Exactly what `sbrdf_eval` gives pair by pair, except that a pair with a zero or non-finite
+/// vector gives 0 instead of an error. The incident side of the query is computed once per run
+/// of pairs with the same `wi`, the spectral basis once per wavelength. Allocates nothing.
+#[no_mangle]
+pub unsafe extern "C" fn sbrdf_eval_batch(
+    b: *const sbrdf_t,
+    n: usize,
+    wi: *const f32,
+    wi_stride: usize,
+    wo: *const f32,
+    wo_stride: usize,
+    wavelengths_nm: *const f32,
+    count: usize,
+    out: *mut f32,
+) -> c_int {
+    guarded(|| {
+        if b.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        if n == 0 || count == 0 {
+            return SBRDF_OK;
+        }
+        if wi.is_null() || wo.is_null() || wavelengths_nm.is_null() || out.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        let Some(total) = n.checked_mul(count) else {
+            return SBRDF_ERR_ARGUMENT;
+        };
+        // The last vector's offset must be addressable.
+        let last = |stride: usize| (n - 1).checked_mul(stride).and_then(|x| x.checked_add(3));
+        if last(wi_stride).is_none() || last(wo_stride).is_none() {
+            return SBRDF_ERR_ARGUMENT;
+        }
+        let wl = std::slice::from_raw_parts(wavelengths_nm, count);
+        let out = std::slice::from_raw_parts_mut(out, total);
+        let read = |p: *const f32, stride: usize, i: usize| {
+            let q = p.add(i * stride);
+            [*q, *q.add(1), *q.add(2)]
+        };
+        (*b).0.eval_batch_with(
+            n,
+            |i| read(wi, wi_stride, i),
+            |i| read(wo, wo_stride, i),
+            wl,
+            out,
+        );
+        SBRDF_OK
+    })
+}
+
 /// Draws an outgoing direction `wo` (toward the viewer) for the incident direction `wi` (toward
 /// the light) from two uniform numbers in [0, 1) (1 is taken as just below 1), and stores the
 /// density it was drawn with (1/sr, over solid angle; the same for every wavelength) in `*pdf`:

@@ -15,9 +15,17 @@ use std::path::Path;
 /// neighbouring records (SH coefficients, lobe amplitudes and shapes, the peak's offset from the
 /// mirror direction) and evaluating once, so a specular peak moves with the incident direction
 /// instead of cross-fading between two peaks (`spec/EVALUATION.md`, "Between stored incidences").
+///
+/// Memory: an opened file is held in a compact resident form (flat arrays of the stored values,
+/// no allocation per record); [`Decoder::resident_bytes`] says how much. The [`Material`] view
+/// ([`Decoder::material`]) is rebuilt from it on first use, for tools; a renderer that only
+/// evaluates never pays for it.
 #[derive(Debug, Clone)]
 pub struct Decoder {
     evaluator: Evaluator,
+    /// The material view, built on first use of [`Decoder::material`] (or kept from
+    /// [`Decoder::from_material`]).
+    material: std::sync::OnceLock<Material>,
     /// Per record, the energy of the background and of each lobe: the mixture weights of
     /// importance sampling ([`super::sampling`]). Computed on first use, once: they cost three
     /// times the rest of opening a file, which a decoder that only evaluates need not pay.
@@ -31,7 +39,13 @@ impl Decoder {
     }
 
     pub fn from_bytes_with_limits(bytes: &[u8], limits: &Limits) -> Result<Self> {
-        Self::from_material(read_material(bytes, limits)?)
+        // The reader validated the material: only its resident form is kept.
+        let material = read_material(bytes, limits)?;
+        Ok(Decoder {
+            evaluator: Evaluator::new(&material),
+            material: std::sync::OnceLock::new(),
+            sampling: std::sync::OnceLock::new(),
+        })
     }
 
     /// Reads and parses a file; refuses files above the default size limit before reading them.
@@ -68,17 +82,38 @@ impl Decoder {
             .validate()
             .map_err(|e| Error::Parameter(format!("invalid material: {e}")))?;
         Ok(Decoder {
-            evaluator: Evaluator::new(material),
+            evaluator: Evaluator::new(&material),
+            material: material.into(),
             sampling: std::sync::OnceLock::new(),
         })
     }
 
+    /// The file's content: records, metadata, sample positions. Rebuilt from the resident form
+    /// on first use (exactly what was read) and kept; thread-safe.
     pub fn material(&self) -> &Material {
-        &self.evaluator.material
+        self.material.get_or_init(|| self.evaluator.res.material())
     }
 
-    pub fn into_material(self) -> Material {
-        self.evaluator.material
+    pub fn into_material(mut self) -> Material {
+        self.material
+            .take()
+            .unwrap_or_else(|| self.evaluator.res.material())
+    }
+
+    /// Bytes this decoder holds in memory: the struct and everything it owns on the heap
+    /// (capacities as requested from the allocator, whose own overhead, typically 8–16 bytes
+    /// per allocation over about a dozen allocations, is not counted). An opened file starts
+    /// at its resident form; the importance-sampling weights ([`Decoder::prepare_sampling`])
+    /// and the [`Material`] view ([`Decoder::material`]) add to it once used.
+    pub fn resident_bytes(&self) -> usize {
+        let mut n = std::mem::size_of::<Self>() + self.evaluator.heap_bytes();
+        if let Some(w) = self.sampling.get() {
+            n += w.heap_bytes();
+        }
+        if let Some(m) = self.material.get() {
+            n += material_heap_bytes(m);
+        }
+        n
     }
 
     /// ρ at unit vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame
@@ -118,6 +153,67 @@ impl Decoder {
             .eval_deg(incident, outgoing, wavelengths, out)
     }
 
+    /// ρ for many direction pairs at once: pair i is (`wi[i]`, `wo[i]`), and a slice of length 1
+    /// is used for every pair (one light, many viewers, say). Row i of `out` (`wavelengths.len()`
+    /// values from i·`wavelengths.len()`) receives what [`Decoder::eval`] would write for pair i.
+    /// Work that depends on the incident direction alone (the records to blend and the blended
+    /// lobe shapes) is done once per run of pairs with the same `wi`, and the spectral basis
+    /// once per wavelength for the whole batch. Never allocates.
+    ///
+    /// Errors (nothing written): `wi` and `wo` have different lengths, neither being 1, or
+    /// `out` holds fewer than N·`wavelengths.len()` values.
+    pub fn eval_batch(
+        &self,
+        wi: &[[f32; 3]],
+        wo: &[[f32; 3]],
+        wavelengths: &[f32],
+        out: &mut [f32],
+    ) -> Result<()> {
+        let n = match (wi.len(), wo.len()) {
+            (a, b) if a == b => a,
+            (1, b) => b,
+            (a, 1) => a,
+            (a, b) => {
+                return Err(Error::Parameter(format!(
+                    "eval_batch: {a} incident and {b} outgoing directions (give as many of \
+                     each, or one of either)"
+                )))
+            }
+        };
+        let need = n.checked_mul(wavelengths.len());
+        if need.is_none_or(|need| out.len() < need) {
+            return Err(Error::Parameter(format!(
+                "eval_batch: {n} pairs × {} wavelengths need {} output values, {} given",
+                wavelengths.len(),
+                n.saturating_mul(wavelengths.len()),
+                out.len()
+            )));
+        }
+        let (wi_step, wo_step) = (usize::from(wi.len() != 1), usize::from(wo.len() != 1));
+        super::batch::eval_batch(
+            &self.evaluator,
+            |i| wi[i * wi_step],
+            |i| wo[i * wo_step],
+            n,
+            wavelengths,
+            out,
+        );
+        Ok(())
+    }
+
+    /// [`Decoder::eval_batch`] over vectors read through accessors (the C ABI's strided
+    /// arrays): pair i is (`wi(i)`, `wo(i)`) for i < `n`. `out` must hold n·M values.
+    pub(crate) fn eval_batch_with(
+        &self,
+        n: usize,
+        wi: impl Fn(usize) -> [f32; 3],
+        wo: impl Fn(usize) -> [f32; 3],
+        wavelengths: &[f32],
+        out: &mut [f32],
+    ) {
+        super::batch::eval_batch(&self.evaluator, wi, wo, n, wavelengths, out)
+    }
+
     /// Computes the importance-sampling weights now rather than on the first call of
     /// [`Decoder::sample`] or [`Decoder::pdf`] (the only call that allocates): for renderers
     /// that want every later call allocation-free. Thread-safe; later calls do nothing.
@@ -154,4 +250,44 @@ impl Decoder {
     pub fn pdf(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
         sampling::pdf(&self.evaluator, self.sampling_weights(), wi, wo)
     }
+}
+
+/// Heap bytes of a material held in memory (capacities).
+fn material_heap_bytes(m: &Material) -> usize {
+    use crate::model::material::{DirectionSet, IncidentRecord, Lobe};
+    use std::mem::size_of;
+    let table = m
+        .spectral
+        .table
+        .as_ref()
+        .map_or(0, |t| 8 * (t.nodes.capacity() + t.values.capacity()));
+    let records: usize = m
+        .records
+        .iter()
+        .map(|r| {
+            4 * r.sh.capacity()
+                + size_of::<Lobe>() * r.lobes.capacity()
+                + r.lobes
+                    .iter()
+                    .map(|l| 4 * (l.amplitude.capacity() + l.params.capacity()))
+                    .sum::<usize>()
+        })
+        .sum();
+    let samp = m.sample_positions.as_ref().map_or(0, |sp| {
+        4 * sp.set_of_incidence.capacity()
+            + size_of::<DirectionSet>() * sp.sets.capacity()
+            + sp.sets
+                .iter()
+                .map(|s| match s {
+                    DirectionSet::List(v) => 8 * v.capacity(),
+                    DirectionSet::Grid { .. } => 0,
+                })
+                .sum::<usize>()
+    });
+    table
+        + 4 * m.wavelengths.capacity()
+        + size_of::<IncidentRecord>() * m.records.capacity()
+        + records
+        + m.metadata.as_ref().map_or(0, |s| s.capacity())
+        + samp
 }

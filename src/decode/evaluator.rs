@@ -1,86 +1,81 @@
 //! Reconstruction: the SH background, the lobes and the spectral basis evaluated at a query,
 //! parameters blended between stored incidences (`spec/EVALUATION.md`, "Reconstruction").
+//!
+//! A query is split in two. Its incident side ([`Incident`]: the records to blend, their
+//! weights, the evaluation incidence, and every shared lobe's blended shape) depends on ωi
+//! alone; its outgoing side (the SH functions, the lobes' values, the spectrum) on ωo. The
+//! batch entry point ([`super::batch`]) computes the incident side once for a run of pairs that
+//! share ωi.
 
 use super::lattice::{unit, Blend, Lattice, QueryFrame};
-use crate::model::angles::{angle_between, deg_from_dir, dir_from_deg, dot, mirror_deg, normalize};
-use crate::model::factor::{FactorModel, FeatureValues, MAX_COMPONENTS, MAX_RANK};
+use super::resident::Resident;
+use crate::model::angles::phi_delta;
+use crate::model::angles::{angle_between, deg_from_dir, dir_from_deg, dot, mirror_deg};
+use crate::model::factor::{FeatureValues, MAX_COMPONENTS, MAX_RANK};
 use crate::model::lobes::MicrofacetGeometry;
-use crate::model::material::{LobeKind, Material, MAX_TERMS};
+use crate::model::material::{LobeKind, Material, MAX_LOBES, MAX_TERMS};
 use crate::model::sh::{sh_count, ShBasis, MAX_SH_LEVEL};
-use crate::model::spectral::SpectrumEvaluator;
 
 const MAX_SH: usize = sh_count(MAX_SH_LEVEL);
+/// Files within SH level 6 and 16 terms (every file the encoder writes by default) evaluate with
+/// small scratch arrays: zeroing the format's maxima (441 SH values, 256 terms) would cost more
+/// than the evaluation.
+pub(crate) const SMALL_SH: usize = sh_count(6);
+pub(crate) const SMALL_TERMS: usize = 16;
 
-/// A validated material plus what makes evaluation cheap.
-///
-/// An incident direction that is not stored is answered by interpolating the *parameters* of the
-/// neighbouring records (SH coefficients, lobe amplitudes and shapes, the peak's offset from the
-/// mirror direction) and evaluating once, so a specular peak moves with the incident direction
-/// instead of cross-fading between two peaks (`spec/EVALUATION.md`, "Between stored incidences").
+/// A validated material in its resident form plus what makes evaluation cheap.
 #[derive(Debug, Clone)]
 pub(crate) struct Evaluator {
-    pub(crate) material: Material,
-    sh: ShBasis,
-    /// Per record: the peak direction's offset from the mirror direction, (Δθ, Δφ) in degrees.
-    peak_offset: Vec<(f64, f64)>,
-    /// Per record: the unit peak vector (isotropic files blend these directly, which needs no
-    /// trigonometry: all their records share the φ = 0 frame).
-    pub(crate) peaks: Vec<[f64; 3]>,
-    /// Natural logarithms of every lobe parameter, [record][lobe][parameter]: widths, exponents
-    /// and microfacet b, c are interpolated geometrically, and taking logs once here keeps
-    /// `ln` out of the per-query path.
-    pub(crate) ln_params: Vec<Vec<Vec<f64>>>,
+    pub(crate) res: Resident,
     lattice: Lattice,
-    /// SH level ≤ 6 and ≤ 16 terms: evaluation can use small scratch arrays.
     small: bool,
-    spectrum: SpectrumEvaluator,
-    /// The factor model shared by every incidence, with its wavelength nodes, if any.
-    factor: Option<(FactorModel, WavelengthNodes)>,
     /// The stored θ range's ends with their sine and cosine: a query clamped to an end keeps
     /// its azimuth without trigonometry.
     theta_ends: [(f64, f64, f64); 2],
+    /// The factor model shared by every incidence (`FACT`), with the file's wavelengths as its
+    /// spectra's nodes, if any: evaluated at the query's own directions and added before the
+    /// clamp ("Reconstruction", step 5).
+    factor_nodes: Option<WavelengthNodes>,
 }
+
+/// A factor model's angular terms T_cr at one pair of directions.
+type FactorTerms = [f64; MAX_COMPONENTS * MAX_RANK];
+
+/// The shape of a lobe shared by the blended records, blended once per incidence.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct LobeShape {
+    /// The peak direction (kinds 1 and 4).
+    pub peak: [f64; 3],
+    /// Kind 4: [n, –, –]; kinds 2 and 3: [b, c, a] rounded to f32 (`spec/EVALUATION.md`,
+    /// "Lobes by position"); kind 1 blends its widths per term at evaluation.
+    pub p: [f64; 3],
+}
+
+/// The incident side of a query: everything that does not depend on ωo.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Incident {
+    pub blend: Blend,
+    /// The evaluation incidence ωi* and its angles (degrees, in the records' frame).
+    pub wi: [f64; 3],
+    pub theta: f64,
+    pub phi: f64,
+    /// T* and the highest SH level among the blended records.
+    pub terms: usize,
+    pub level: usize,
+    /// The most lobes a blended record has, and bit li set when position li is shared.
+    pub nlobes: usize,
+    pub shared: u8,
+}
+
+/// The blended shapes of an incidence's shared lobes, by position (for a run of pairs that
+/// share the incidence).
+pub(crate) type Shapes = [LobeShape; MAX_LOBES];
 
 impl Evaluator {
     /// Prepares a material for evaluation; the caller has validated it.
-    pub(crate) fn new(material: Material) -> Self {
-        let sh = ShBasis::new(material.sh_level);
-        let peak_offset = material
-            .records
-            .iter()
-            .map(|r| {
-                let (mt, mp) = mirror_deg(r.theta_i as f64, r.phi_i as f64);
-                // A peak at the pole has no azimuth: its offset is in θ alone.
-                let dphi = if r.theta_p == 0.0 {
-                    0.0
-                } else {
-                    crate::model::angles::phi_delta(r.phi_p as f64, mp)
-                };
-                (r.theta_p as f64 - mt, dphi)
-            })
-            .collect();
-        let lattice = Lattice::of(&material);
-        let small = material.sh_level <= 6 && material.spectral.terms <= 16;
-        let peaks = material
-            .records
-            .iter()
-            .map(|r| dir_from_deg(r.theta_p as f64, r.phi_p as f64))
-            .collect();
-        let ln_params = material
-            .records
-            .iter()
-            .map(|r| {
-                r.lobes
-                    .iter()
-                    .map(|l| l.params.iter().map(|&p| (p as f64).ln()).collect())
-                    .collect()
-            })
-            .collect();
-        let spectrum = SpectrumEvaluator::new(&material.spectral);
-        let factor = material.factor.clone().map(|f| {
-            let nodes = WavelengthNodes::new(&material.wavelengths);
-            (f, nodes)
-        });
+    pub(crate) fn new(material: &Material) -> Self {
+        let lattice = Lattice::of(material);
+        let small = material.sh_level <= 6 && material.spectral.terms <= SMALL_TERMS;
         let end = |t: f64| {
             let (s, c) = t.to_radians().sin_cos();
             (t, s, c)
@@ -88,28 +83,66 @@ impl Evaluator {
         let first = material.records.first().map_or(0.0, |r| r.theta_i as f64);
         let last = material.records.last().map_or(0.0, |r| r.theta_i as f64);
         Evaluator {
-            material,
-            sh,
-            peak_offset,
-            peaks,
-            ln_params,
+            res: Resident::new(material),
             lattice,
             small,
-            spectrum,
-            factor,
             theta_ends: [end(first), end(last)],
+            factor_nodes: material
+                .factor
+                .as_ref()
+                .map(|_| WavelengthNodes::new(&material.wavelengths)),
         }
     }
 
-    /// ρ at unit vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame
-    /// (z = normal), for each wavelength in nm, into `out` (1/sr); never negative (the series is
-    /// clamped at 0, `spec/EVALUATION.md`). Directions below the horizon give 0; so do zero or
-    /// non-finite vectors. Wavelengths outside the file's spectral interval are clamped to it;
-    /// incident directions outside the stored θ range are clamped to it. Writes
+    /// Whether the file holds a factor model (its pairs take [`Evaluator::eval`]'s general
+    /// path).
+    pub(crate) fn has_factor(&self) -> bool {
+        self.res.factor.is_some()
+    }
+
+    /// The factor model's angular terms at unit vectors `wi`, `wo` (any common frame: its
+    /// features depend on the pair alone), if the file has one.
+    #[inline]
+    fn factor_terms(&self, wi: [f64; 3], wo: [f64; 3]) -> Option<FactorTerms> {
+        self.res.factor.as_ref().map(|f| {
+            let feats = FeatureValues::of(wi, wo).clamped(&f.ranges);
+            let mut t = [0.0f64; MAX_COMPONENTS * MAX_RANK];
+            f.angular(&feats, &mut t);
+            t
+        })
+    }
+
+    /// ρ at one wavelength from the blended coefficients `c` and the factor terms `t`, before
+    /// the clamp; 0 at a non-finite wavelength.
+    #[inline]
+    fn value_with_factor(&self, c: &[f64], t: &FactorTerms, l: f64) -> f64 {
+        if !l.is_finite() {
+            return 0.0;
+        }
+        let mut v = self.res.spectrum.dot(c, l);
+        if let (Some(f), Some(nodes)) = (&self.res.factor, &self.factor_nodes) {
+            let (j, a) = nodes.bracket(l);
+            v += f.value(t, j, a);
+        }
+        v
+    }
+
+    /// Heap bytes held by the evaluator.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        let nodes = self
+            .factor_nodes
+            .as_ref()
+            .map_or(0, |n| 8 * n.nodes.capacity());
+        self.res.heap_bytes() + self.lattice.heap_bytes() + nodes
+    }
+
+    /// ρ at vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame
+    /// (z = normal), for each wavelength in nm, into `out` (1/sr); never negative. Writes
     /// `min(wavelengths.len(), out.len())` values; never allocates.
+    #[inline(always)]
     pub(crate) fn eval(&self, wi: [f32; 3], wo: [f32; 3], wavelengths: &[f32], out: &mut [f32]) {
         let n = wavelengths.len().min(out.len());
-        let out = &mut out[..n];
+        let (out, wavelengths) = (&mut out[..n], &wavelengths[..n]);
         let (Some(wi), Some(wo)) = (unit(wi), unit(wo)) else {
             out.fill(0.0);
             return;
@@ -119,22 +152,30 @@ impl Evaluator {
             return;
         }
         let q = self.query_frame(wi);
-        let wl = wavelengths.iter().map(|&l| l as f64);
-        // Clamped at 0 (spec/EVALUATION.md, "Reconstruction", step 5): a fit can undershoot
-        // between its samples, and a renderer would turn that into negative light.
-        let sink = |i: usize, v: f64| out[i] = v.max(0.0) as f32;
-        self.eval_frame(q.theta, q.phi, Some(q.wi), q.in_frame(wo), wl, sink);
+        let inc = self.incident(q.theta, q.phi, Some(q.wi));
+        let wo = q.in_frame(wo);
+        if let Some(t) = self.factor_terms(q.wi, wo) {
+            self.outgoing(&inc, wo, |c| {
+                for (o, &l) in out.iter_mut().zip(wavelengths) {
+                    *o = self.value_with_factor(c, &t, l as f64).max(0.0) as f32;
+                }
+            });
+            return;
+        }
+        self.outgoing(&inc, wo, |c| {
+            self.res.spectrum.eval_clamped(c, wavelengths, out)
+        });
     }
 
     /// The query's incident direction in the records' frame (`wi` a unit vector with z ≥ 0).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn query_frame(&self, wi: [f64; 3]) -> QueryFrame {
         let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
         // θ only places the query between stored incidences. Single precision matches what
         // the f32 input vector can say about its own angle (≈1e-7 rad); the `libm` crate's
         // atan2f inlines here and costs a fraction of the system library's f64 atan2.
         let theta = (libm::atan2f(r as f32, wi[2] as f32) as f64).to_degrees();
-        if self.material.isotropic {
+        if self.res.isotropic {
             // Rotate into the stored frame (φi = 0) with the azimuth's cosine and sine, no trig.
             let (c, s) = if r > 0.0 {
                 let inv = 1.0 / r;
@@ -159,7 +200,7 @@ impl Evaluator {
         }
     }
 
-    /// Convenience form of [`Decoder::eval`] with angles in degrees.
+    /// Convenience form of [`crate::Decoder::eval`] with angles in degrees.
     pub(crate) fn eval_deg(
         &self,
         incident: (f64, f64),
@@ -187,151 +228,38 @@ impl Evaluator {
             out.fill(0.0);
             return;
         }
-        let wl = wavelengths[..n].iter().copied();
-        let sink = |i: usize, v: f64| out[i] = if clamp { v.max(0.0) } else { v };
-        if self.material.isotropic {
-            let wo = dir_from_deg(outgoing.0, outgoing.1 - incident.1);
-            self.eval_frame(incident.0, 0.0, None, wo, wl, sink);
+        let (phi, wo) = if self.res.isotropic {
+            (0.0, dir_from_deg(outgoing.0, outgoing.1 - incident.1))
         } else {
-            let wo = dir_from_deg(outgoing.0, outgoing.1);
-            self.eval_frame(incident.0, incident.1, None, wo, wl, sink);
-        }
-    }
-
-    /// Evaluates at incidence (θ, φ) in degrees — already rotated to φ = 0 for isotropic files,
-    /// as is the unit outgoing vector `wo` — passing (i, ρ(λ_i)) to `sink`. `wi`, when given,
-    /// is the unit incident vector of (θ, φ) (it saves the trigonometry).
-    fn eval_frame(
-        &self,
-        theta: f64,
-        phi: f64,
-        wi: Option<[f64; 3]>,
-        wo: [f64; 3],
-        wavelengths: impl Iterator<Item = f64>,
-        sink: impl FnMut(usize, f64),
-    ) {
-        // Scratch arrays live on the stack; zeroing the format's maxima (441 SH values, 256
-        // terms) would cost more than the evaluation, so files within SH level 6 and 16 terms
-        // (every file the encoder writes by default) use small ones.
-        if self.small {
-            self.eval_sized::<{ sh_count(6) }, 16>(theta, phi, wi, wo, wavelengths, sink)
-        } else {
-            self.eval_sized::<MAX_SH, MAX_TERMS>(theta, phi, wi, wo, wavelengths, sink)
-        }
-    }
-
-    fn eval_sized<const NSH: usize, const NT: usize>(
-        &self,
-        theta: f64,
-        phi: f64,
-        wi: Option<[f64; 3]>,
-        wo: [f64; 3],
-        wavelengths: impl Iterator<Item = f64>,
-        mut sink: impl FnMut(usize, f64),
-    ) {
-        let m = &self.material;
+            (incident.1, dir_from_deg(outgoing.0, outgoing.1))
+        };
+        let inc = self.incident(incident.0, phi, None);
         // The factor model sees the query as it is (its features are clamped to the ranges it
         // was fitted on); the records, the nearest stored incidences.
-        let factor = self.factor.as_ref().map(|(f, _)| {
-            let wq = wi.unwrap_or_else(|| dir_from_deg(theta, phi));
-            let feats = FeatureValues::of(wq, wo).clamped(&f.ranges);
-            let mut t = [0.0f64; MAX_COMPONENTS * MAX_RANK];
-            f.angular(&feats, &mut t);
-            t
+        let t = self
+            .factor_terms(dir_from_deg(incident.0, phi), wo)
+            .unwrap_or([0.0; MAX_COMPONENTS * MAX_RANK]);
+        self.outgoing(&inc, wo, |c| {
+            for (o, &l) in out.iter_mut().zip(wavelengths) {
+                // A non-finite wavelength gives 0; the value is clamped at 0 unless asked not to.
+                let v = self.value_with_factor(c, &t, l);
+                *o = if clamp { v.max(0.0) } else { v };
+            }
         });
-        let (blend, wi, theta, phi) = self.resolve(theta, phi, wi);
-        let recs = &blend.rec[..blend.n];
-        let ws = &blend.w[..blend.n];
-        let k = recs.iter().map(|&r| m.records[r].terms).max().unwrap_or(1);
-        let level = recs
-            .iter()
-            .map(|&r| m.records[r].sh_level)
-            .max()
-            .unwrap_or(0);
-        let mut y = [0.0f64; NSH];
-        self.sh.eval_to_level(level, wo, &mut y);
-        let mut c = [0.0f64; NT];
-        for (&r, &w) in recs.iter().zip(ws) {
-            let rec = &m.records[r];
-            let p = sh_count(rec.sh_level);
-            for (kk, ck) in c[..rec.terms].iter_mut().enumerate() {
-                let row = &rec.sh[kk * p..(kk + 1) * p];
-                let v: f64 = row.iter().zip(&y[..p]).map(|(a, b)| *a as f64 * b).sum();
-                *ck += w * v;
-            }
-        }
-        // Lobes: where every blended record has a lobe of the same kind at the same position,
-        // its shape parameters are interpolated and it is evaluated once; otherwise each record's
-        // lobe is evaluated with its own shape and weighted.
-        let max_lobes = recs
-            .iter()
-            .map(|&r| m.records[r].lobes.len())
-            .max()
-            .unwrap_or(0);
-        // The microfacet geometry depends on the directions alone: computed at most once.
-        let mut geometry = None;
-        for li in 0..max_lobes {
-            let kind = m.records[recs[0]].lobes.get(li).map(|l| l.kind);
-            let shared = kind.is_some()
-                && recs
-                    .iter()
-                    .all(|&r| m.records[r].lobes.get(li).map(|l| l.kind) == kind);
-            if shared {
-                self.add_lobe(
-                    &mut c[..k],
-                    recs,
-                    ws,
-                    li,
-                    wi,
-                    wo,
-                    (theta, phi),
-                    &mut geometry,
-                );
-            } else {
-                for (&r, &w) in recs.iter().zip(ws) {
-                    if li < m.records[r].lobes.len() {
-                        let one = ([r], [w]);
-                        self.add_lobe(
-                            &mut c[..k],
-                            &one.0,
-                            &one.1,
-                            li,
-                            wi,
-                            wo,
-                            (theta, phi),
-                            &mut geometry,
-                        );
-                    }
-                }
-            }
-        }
-        for (i, l) in wavelengths.enumerate() {
-            if !l.is_finite() {
-                sink(i, 0.0); // documented: a non-finite wavelength gives 0
-                continue;
-            }
-            // The sink clamps at 0 (step 5) unless an unclamped value was asked for.
-            let mut v = self.spectrum.dot(&c[..k], l);
-            if let (Some((f, nodes)), Some(t)) = (&self.factor, &factor) {
-                let (j, a) = nodes.bracket(l);
-                v += f.value(t, j, a);
-            }
-            sink(i, v);
-        }
     }
 
     /// The records to blend for a query incidence (θ, φ in degrees, in the records' frame), the
     /// incident vector they are evaluated with (`wi`, when given, is the unit vector of (θ, φ))
     /// and its angles: outside the stored θ range the nearest stored θ is used, incident vector
     /// included.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn resolve(
         &self,
         theta: f64,
         phi: f64,
         wi: Option<[f64; 3]>,
     ) -> (Blend, [f64; 3], f64, f64) {
-        let (blend, at_theta, at_phi) = self.lattice.blend(&self.material, theta, phi);
+        let (blend, at_theta, at_phi) = self.lattice.blend(&self.res.recs, theta, phi);
         let wi = match wi {
             Some(v) if at_theta == theta && at_phi == phi => v,
             Some(v) if at_phi == phi => self.clamped(v, at_theta),
@@ -342,9 +270,10 @@ impl Evaluator {
 
     /// The unit vector at polar angle `theta` (degrees; one of the stored range's ends) with the
     /// azimuth of the unit vector `v`; φ = 0 when `v` is the normal.
+    #[inline(always)]
     fn clamped(&self, v: [f64; 3], theta: f64) -> [f64; 3] {
         let Some(&(_, s, c)) = self.theta_ends.iter().find(|e| e.0 == theta) else {
-            return dir_from_deg(theta, crate::model::angles::deg_from_dir(v).1);
+            return dir_from_deg(theta, deg_from_dir(v).1);
         };
         let r = (v[0] * v[0] + v[1] * v[1]).sqrt();
         if r > 0.0 {
@@ -354,154 +283,388 @@ impl Evaluator {
         }
     }
 
-    /// Adds lobe `li` of the records `recs` (all of the same kind), blended with weights `ws`:
-    /// amplitudes linearly, widths and exponents geometrically, the peak's offset from the
-    /// mirror direction linearly.
-    #[allow(clippy::too_many_arguments)]
-    fn add_lobe(
-        &self,
-        c: &mut [f64],
-        recs: &[usize],
-        ws: &[f64],
-        li: usize,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        incidence: (f64, f64),
-        geometry: &mut Option<Option<MicrofacetGeometry>>,
-    ) {
-        let m = &self.material;
-        let lobe0 = &m.records[recs[0]].lobes[li];
-        let geo_mean = |param: usize| -> f64 {
-            if recs.len() == 1 {
-                return m.records[recs[0]].lobes[li].params[param] as f64;
-            }
-            recs.iter()
-                .zip(ws)
-                .map(|(&r, &w)| w * self.ln_params[r][li][param])
-                .sum::<f64>()
-                .exp()
-        };
-        let peak = || self.blended_peak(recs, ws, incidence);
-        // Σ_r w_r·amplitude_r[index] for the records that have that term.
-        let amp = |variant: usize, kk: usize| -> f64 {
-            recs.iter()
-                .zip(ws)
-                .map(|(&r, &w)| {
-                    let rec = &m.records[r];
-                    if kk < rec.terms {
-                        w * rec.lobes[li].amplitude[variant * rec.terms + kk] as f64
-                    } else {
-                        0.0
-                    }
-                })
-                .sum()
-        };
-        match lobe0.kind {
-            LobeKind::AngleGaussian => {
-                let a2 = angle_between(wo, peak()).powi(2);
-                for (kk, ck) in c.iter_mut().enumerate() {
-                    // Per-term widths: a record without term kk contributes nothing to it.
-                    let (mut lw, mut wsum) = (0.0, 0.0);
-                    for (&r, &w) in recs.iter().zip(ws) {
-                        if kk < m.records[r].terms {
-                            lw += w * self.ln_params[r][li][kk];
-                            wsum += w;
-                        }
-                    }
-                    if recs.len() == 1 && kk < m.records[recs[0]].terms {
-                        let b = m.records[recs[0]].lobes[li].params[kk] as f64;
-                        *ck += amp(0, kk) * (-a2 / b).exp();
-                    } else if wsum > 0.0 {
-                        *ck += amp(0, kk) * (-a2 / (lw / wsum).exp()).exp();
-                    }
+    /// The incident side of a query at incidence (θ, φ) in degrees, in the records' frame (`wi`
+    /// its unit vector when known).
+    #[inline(always)]
+    pub(crate) fn incident(&self, theta: f64, phi: f64, wi: Option<[f64; 3]>) -> Incident {
+        let (blend, wi, theta, phi) = self.resolve(theta, phi, wi);
+        let res = &self.res;
+        let recs = &blend.rec[..blend.n];
+        let r0 = &res.recs[recs[0]];
+        let (mut terms, mut level, mut nlobes) =
+            (r0.terms as usize, r0.level as usize, r0.nlobes as usize);
+        let mut same = true;
+        for &r in &recs[1..] {
+            let rec = &res.recs[r];
+            terms = terms.max(rec.terms as usize);
+            level = level.max(rec.level as usize);
+            nlobes = nlobes.max(rec.nlobes as usize);
+            same &= rec.kinds == r0.kinds;
+        }
+        let shared = if same {
+            ((1u16 << r0.nlobes) - 1) as u8
+        } else {
+            // Position li is shared when every blended record has a lobe there, of one kind.
+            let mut mask = 0u8;
+            for li in 0..nlobes {
+                let kind = (r0.kinds >> (4 * li)) & 15;
+                if kind != 0
+                    && recs
+                        .iter()
+                        .all(|&r| (res.recs[r].kinds >> (4 * li)) & 15 == kind)
+                {
+                    mask |= 1 << li;
                 }
             }
-            LobeKind::CosinePower => {
-                // The cosine is capped at 1: rounding can exceed it, and a large exponent would
-                // turn 1 + ε into infinity.
-                // g^n as exp(n·ln g): powf's value to ~1e-15 relative, a little quicker, and the
-                // geometric mean of the exponents is already a logarithm.
-                let ln_g = dot(wo, peak()).clamp(0.0, 1.0).ln();
-                let g = if recs.len() == 1 {
-                    (m.records[recs[0]].lobes[li].params[0] as f64 * ln_g).exp()
-                } else {
-                    let ln_n: f64 = recs
-                        .iter()
-                        .zip(ws)
-                        .map(|(&r, &w)| w * self.ln_params[r][li][0])
-                        .sum();
-                    (ln_n.exp() * ln_g).exp()
-                };
-                self.add_amplitudes(c, recs, ws, li, &[g]);
+            mask
+        };
+        Incident {
+            blend,
+            wi,
+            theta,
+            phi,
+            terms,
+            level,
+            nlobes,
+            shared,
+        }
+    }
+
+    /// Every shared lobe's blended shape into `shapes`, for reuse over a run of pairs.
+    pub(crate) fn shapes(&self, inc: &Incident, shapes: &mut Shapes) {
+        for (li, s) in shapes.iter_mut().enumerate().take(inc.nlobes) {
+            if inc.shared & (1 << li) != 0 {
+                *s = self.shared_shape(inc, li);
             }
+        }
+    }
+
+    /// The blended shape of the shared lobe at position `li`: exponents and microfacet b, c
+    /// geometrically, microfacet a linearly, the peak direction by "Blended peak direction".
+    #[inline(always)]
+    pub(crate) fn shared_shape(&self, inc: &Incident, li: usize) -> LobeShape {
+        let res = &self.res;
+        let recs = &inc.blend.rec[..inc.blend.n];
+        let ws = &inc.blend.w[..inc.blend.n];
+        let r0 = &res.recs[recs[0]];
+        let l0 = res.lobe(r0, li);
+        let single = recs.len() == 1;
+        let geo = |i: usize| -> f64 {
+            if single {
+                return res.params[l0.par as usize + i] as f64;
+            }
+            let mut s = 0.0;
+            for (&r, &w) in recs.iter().zip(ws) {
+                s += w * res.ln_params[res.lobe(&res.recs[r], li).par as usize + i];
+            }
+            s.exp()
+        };
+        match l0.kind {
+            LobeKind::AngleGaussian => LobeShape {
+                peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
+                p: [0.0; 3],
+            },
+            LobeKind::CosinePower => LobeShape {
+                peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
+                p: [geo(0), 0.0, 0.0],
+            },
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
-                // The Smith parameter is interpolated linearly; normalised by the weights, so a
-                // record evaluated on its own (lobes not shared) keeps its stored value.
-                let (wa, wsum) = recs
-                    .iter()
-                    .zip(ws)
-                    .fold((0.0, 0.0), |(wa, wsum), (&r, &w)| {
-                        (wa + w * m.records[r].lobes[li].params[2] as f64, wsum + w)
-                    });
-                let a = wa / wsum;
-                let params = [geo_mean(0) as f32, geo_mean(1) as f32, a as f32];
-                let Some(g) = *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo))
-                else {
-                    return; // wi = −wo: every variant is 0
+                let a = if single {
+                    res.params[l0.par as usize + 2] as f64
+                } else {
+                    let (mut wa, mut wsum) = (0.0, 0.0);
+                    for (&r, &w) in recs.iter().zip(ws) {
+                        wa += w * res.params[res.lobe(&res.recs[r], li).par as usize + 2] as f64;
+                        wsum += w;
+                    }
+                    wa / wsum
                 };
-                let v = g.variants(&params, lobe0.kind == LobeKind::MicrofacetSin2);
-                self.add_amplitudes(c, recs, ws, li, &v);
+                LobeShape {
+                    peak: [0.0; 3],
+                    p: [geo(0) as f32 as f64, geo(1) as f32 as f64, a as f32 as f64],
+                }
             }
         }
     }
 
     /// The peak direction of a lobe blended from the records `recs` with weights `ws`, at the
     /// evaluation incidence (θ, φ) in degrees (`spec/EVALUATION.md`, "Blended peak direction").
+    #[inline(always)]
     pub(crate) fn blended_peak(
         &self,
         recs: &[usize],
         ws: &[f64],
         incidence: (f64, f64),
     ) -> [f64; 3] {
+        let res = &self.res;
         if recs.len() == 1 {
-            return self.peaks[recs[0]];
+            return res.recs[recs[0]].peak;
         }
-        if self.material.isotropic {
+        if res.isotropic {
             // Records 1D in θ, one frame: the normalised weighted mean of their peaks.
             let mut v = [0.0; 3];
             for (&r, &w) in recs.iter().zip(ws) {
-                for (vi, pi) in v.iter_mut().zip(self.peaks[r]) {
+                for (vi, pi) in v.iter_mut().zip(res.recs[r].peak) {
                     *vi += w * pi;
                 }
             }
-            if let Some(u) = normalize(v) {
-                return u;
+            let n2 = dot(v, v);
+            if n2 > 0.0 && n2.is_finite() {
+                let s = 1.0 / n2.sqrt();
+                return [v[0] * s, v[1] * s, v[2] * s];
             }
         }
         // Records at different azimuths: blend the offsets from each one's mirror direction.
-        let (dt, dp) = recs.iter().zip(ws).fold((0.0, 0.0), |(a, b), (&r, &w)| {
-            (a + w * self.peak_offset[r].0, b + w * self.peak_offset[r].1)
-        });
+        let (mut dt, mut dp) = (0.0, 0.0);
+        for (&r, &w) in recs.iter().zip(ws) {
+            let rec = &res.recs[r];
+            let (mt, mp) = mirror_deg(rec.theta_i as f64, rec.phi_i as f64);
+            // A peak at the pole has no azimuth: its offset is in θ alone.
+            if rec.theta_p != 0.0 {
+                dp += w * phi_delta(rec.phi_p as f64, mp);
+            }
+            dt += w * (rec.theta_p as f64 - mt);
+        }
         let (mt, mp) = mirror_deg(incidence.0, incidence.1);
         dir_from_deg(mt + dt, mp + dp)
     }
 
-    /// c[k] += Σ_r w_r Σ_j v[j]·amplitude_r[j·K_r + k] over the terms k each record has: the
-    /// lobe's variants `v`, evaluated once, weighted by every blended record's amplitudes.
-    fn add_amplitudes(&self, c: &mut [f64], recs: &[usize], ws: &[f64], li: usize, v: &[f64]) {
-        for (&r, &w) in recs.iter().zip(ws) {
-            let rec = &self.material.records[r];
-            let amplitude = &rec.lobes[li].amplitude;
-            let t = rec.terms.min(c.len());
-            for (j, &vj) in v.iter().enumerate() {
-                let s = w * vj;
-                let row = &amplitude[j * rec.terms..j * rec.terms + t];
-                for (ck, &a) in c[..t].iter_mut().zip(row) {
-                    *ck += s * a as f64;
+    /// Computes the blended coefficients c_0..c_{T*−1} at the unit outgoing vector `wo` (records'
+    /// frame) and passes them to `f`.
+    #[inline]
+    pub(crate) fn outgoing<R>(
+        &self,
+        inc: &Incident,
+        wo: [f64; 3],
+        f: impl FnOnce(&[f64]) -> R,
+    ) -> R {
+        self.with_coefficients(inc, None, wo, f)
+    }
+
+    /// [`Evaluator::coefficients`] into scratch arrays on the stack sized for the query (zeroing
+    /// the format's maxima, 441 SH values and 256 terms, would cost more than the evaluation):
+    /// SH level ≤ 2 and ≤ 8 terms, level ≤ 6 and ≤ 16 terms, or the maxima.
+    #[inline(always)]
+    pub(crate) fn with_coefficients<R>(
+        &self,
+        inc: &Incident,
+        shapes: Option<&Shapes>,
+        wo: [f64; 3],
+        f: impl FnOnce(&[f64]) -> R,
+    ) -> R {
+        let t = inc.terms;
+        if inc.level <= 2 && t <= 8 {
+            let mut c = [0.0f64; 8];
+            self.coefficients::<{ sh_count(2) }>(inc, shapes, wo, &mut c[..t]);
+            f(&c[..t])
+        } else if self.small {
+            let mut c = [0.0f64; SMALL_TERMS];
+            self.coefficients::<SMALL_SH>(inc, shapes, wo, &mut c[..t]);
+            f(&c[..t])
+        } else {
+            let mut c = [0.0f64; MAX_TERMS];
+            self.coefficients::<MAX_SH>(inc, shapes, wo, &mut c[..t]);
+            f(&c[..t])
+        }
+    }
+
+    /// c\[k\] += the blended coefficients at `wo`; `c` holds T* zeros. `shapes`, when given,
+    /// holds [`Evaluator::shapes`] of `inc`.
+    #[inline(always)]
+    pub(crate) fn coefficients<const NSH: usize>(
+        &self,
+        inc: &Incident,
+        shapes: Option<&Shapes>,
+        wo: [f64; 3],
+        c: &mut [f64],
+    ) {
+        let res = &self.res;
+        let recs = &inc.blend.rec[..inc.blend.n];
+        let ws = &inc.blend.w[..inc.blend.n];
+        let mut y = [0.0f64; NSH];
+        ShBasis::shared().eval_to_level(inc.level, wo, &mut y);
+        // Term by term, every record's share summed in a register and written once.
+        for (k, ck) in c.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for (&r, &w) in recs.iter().zip(ws) {
+                let rec = &res.recs[r];
+                if k < rec.terms as usize {
+                    let p = sh_count(rec.level as usize);
+                    let at = rec.sh as usize + k * p;
+                    acc += w * dot_f32(&res.vals[at..at + p], &y[..p]);
+                }
+            }
+            *ck = acc;
+        }
+        // The microfacet geometry depends on the directions alone: computed at most once.
+        let mut geometry = None;
+        for li in 0..inc.nlobes {
+            if inc.shared & (1 << li) != 0 {
+                let kind = res.lobe(&res.recs[recs[0]], li).kind;
+                let shape = &match shapes {
+                    Some(s) => s[li],
+                    None => self.shared_shape(inc, li),
+                };
+                match kind {
+                    LobeKind::AngleGaussian => self.add_gaussian(c, recs, ws, li, wo, shape.peak),
+                    _ => {
+                        let (v, nv) = self.values(kind, shape, inc.wi, wo, &mut geometry);
+                        self.add_amplitudes(c, recs, ws, li, &v[..nv]);
+                    }
+                }
+            } else {
+                for (&r, &w) in recs.iter().zip(ws) {
+                    let rec = &res.recs[r];
+                    if li >= rec.nlobes as usize {
+                        continue;
+                    }
+                    let l = res.lobe(rec, li);
+                    if l.kind == LobeKind::AngleGaussian {
+                        self.add_gaussian(c, &[r], &[w], li, wo, rec.peak);
+                        continue;
+                    }
+                    let stored = res.params(rec, l);
+                    let mut shape = LobeShape {
+                        peak: rec.peak,
+                        p: [stored[0] as f64, 0.0, 0.0],
+                    };
+                    if l.kind != LobeKind::CosinePower {
+                        shape.p = [stored[0] as f64, stored[1] as f64, stored[2] as f64];
+                    }
+                    let (v, nv) = self.values(l.kind, &shape, inc.wi, wo, &mut geometry);
+                    self.add_amplitudes(c, &[r], &[w], li, &v[..nv]);
                 }
             }
         }
     }
+
+    /// The values a lobe of kind 2, 3 or 4 multiplies its amplitudes by at `wo`: four variants,
+    /// or the cosine power (one).
+    #[inline(always)]
+    fn values(
+        &self,
+        kind: LobeKind,
+        shape: &LobeShape,
+        wi: [f64; 3],
+        wo: [f64; 3],
+        geometry: &mut Option<Option<MicrofacetGeometry>>,
+    ) -> ([f64; 4], usize) {
+        match kind {
+            LobeKind::CosinePower => {
+                // The cosine is capped at 1: rounding can exceed it, and a large exponent would
+                // turn 1 + ε into infinity. g^n as exp(n·ln g): powf's value to ~1e-15 relative,
+                // and a little quicker.
+                let g = dot(wo, shape.peak).min(1.0);
+                let v = if g > 0.0 {
+                    (shape.p[0] * g.ln()).exp()
+                } else {
+                    0.0 // 0ⁿ, without ln 0's division-by-zero trap
+                };
+                ([v, 0.0, 0.0, 0.0], 1)
+            }
+            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
+                match *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo)) {
+                    Some(g) => (g.variants_f64(shape.p, kind == LobeKind::MicrofacetSin2), 4),
+                    None => ([0.0; 4], 4), // wi = −wo: every variant is 0
+                }
+            }
+            LobeKind::AngleGaussian => unreachable!("Gaussian lobes have per-term values"),
+        }
+    }
+
+    /// Adds angle-Gaussian lobe `li` of the records `recs` (weights `ws`), with peak `peak`:
+    /// per term, the amplitudes blended linearly and the widths geometrically over the records
+    /// that have the term.
+    fn add_gaussian(
+        &self,
+        c: &mut [f64],
+        recs: &[usize],
+        ws: &[f64],
+        li: usize,
+        wo: [f64; 3],
+        peak: [f64; 3],
+    ) {
+        let res = &self.res;
+        let a2 = angle_between(wo, peak).powi(2);
+        if recs.len() == 1 {
+            let rec = &res.recs[recs[0]];
+            let l = res.lobe(rec, li);
+            let (amp, width) = (res.amplitudes(rec, l, 0), res.params(rec, l));
+            for ((ck, &p), &b) in c.iter_mut().zip(amp).zip(width) {
+                *ck += ws[0] * (p as f64 * (-a2 / b as f64).exp());
+            }
+            return;
+        }
+        for (kk, ck) in c.iter_mut().enumerate() {
+            let (mut lw, mut wsum, mut amp) = (0.0, 0.0, 0.0);
+            for (&r, &w) in recs.iter().zip(ws) {
+                let rec = &res.recs[r];
+                if kk < rec.terms as usize {
+                    let l = res.lobe(rec, li);
+                    lw += w * res.ln_params[l.par as usize + kk];
+                    wsum += w;
+                    amp += w * res.vals[l.amp as usize + kk] as f64;
+                }
+            }
+            if wsum > 0.0 {
+                *ck += amp * (-a2 / (lw / wsum).exp()).exp();
+            }
+        }
+    }
+
+    /// c\[k\] += Σ_r w_r·Σ_j v\[j\]·amplitude_r\[j·T_r + k\] over the records (weights `ws`)
+    /// that have term k: lobe `li`'s values `v`, evaluated once, weighted by every record's
+    /// amplitudes; each c\[k\] is summed in a register and written once.
+    #[inline(always)]
+    fn add_amplitudes(&self, c: &mut [f64], recs: &[usize], ws: &[f64], li: usize, v: &[f64]) {
+        let res = &self.res;
+        let nv = v.len();
+        // Per record: w·v_j, where its amplitudes start, and its terms.
+        let mut scaled = [[0.0f64; 4]; 4];
+        let mut start = [0usize; 4];
+        let mut terms = [0usize; 4];
+        for (i, (&r, &w)) in recs.iter().zip(ws).enumerate() {
+            let rec = &res.recs[r];
+            start[i] = res.lobe(rec, li).amp as usize;
+            terms[i] = rec.terms as usize;
+            for (s, &vj) in scaled[i].iter_mut().zip(v) {
+                *s = w * vj;
+            }
+        }
+        let n = recs.len();
+        for (k, ck) in c.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for i in 0..n {
+                let t = terms[i];
+                if k < t {
+                    let amp = &res.vals[start[i] + k..start[i] + k + (nv - 1) * t + 1];
+                    for (j, &s) in scaled[i][..nv].iter().enumerate() {
+                        acc += s * amp[j * t] as f64;
+                    }
+                }
+            }
+            *ck += acc;
+        }
+    }
+}
+
+/// Σ a\[j\]·b\[j\] in four interleaved partial sums: one running sum would make every
+/// addition wait for the last (a level-6 record has 49 terms per coefficient).
+#[inline(always)]
+fn dot_f32(a: &[f32], b: &[f64]) -> f64 {
+    let (mut s0, mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0, 0.0);
+    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ar, br) = (a4.remainder(), b4.remainder());
+    for (x, y) in a4.zip(b4) {
+        s0 += x[0] as f64 * y[0];
+        s1 += x[1] as f64 * y[1];
+        s2 += x[2] as f64 * y[2];
+        s3 += x[3] as f64 * y[3];
+    }
+    for (x, y) in ar.iter().zip(br) {
+        s0 += *x as f64 * y;
+    }
+    (s0 + s1) + (s2 + s3)
 }
 
 /// The file's wavelengths as interpolation nodes: a wavelength's bracket (j, a), value =

@@ -2,6 +2,7 @@
 //! frame, how the stored incidences are arranged (a θ line, a θ×φ grid, or scattered), and the
 //! records to blend with their weights (`spec/EVALUATION.md`, "Between stored incidences").
 
+use super::resident::Rec;
 use crate::model::angles::{dir_from_deg, dot};
 use crate::model::material::Material;
 
@@ -21,7 +22,7 @@ pub(crate) struct QueryFrame {
 
 impl QueryFrame {
     /// A vector of the local frame in the records' frame.
-    #[inline]
+    #[inline(always)]
     pub fn in_frame(self, v: [f64; 3]) -> [f64; 3] {
         match self.rotation {
             Some((c, s)) => [c * v[0] + s * v[1], -s * v[0] + c * v[1], v[2]],
@@ -41,7 +42,7 @@ impl QueryFrame {
 
 /// A single-precision vector widened and normalised with one reciprocal (a division per
 /// component costs more); None when it is zero or not finite.
-#[inline]
+#[inline(always)]
 pub(crate) fn unit(v: [f32; 3]) -> Option<[f64; 3]> {
     let v = [v[0] as f64, v[1] as f64, v[2] as f64];
     let n = dot(v, v).sqrt();
@@ -57,12 +58,8 @@ pub(crate) enum Lattice {
     /// Isotropic files: records in increasing θi, all at φi = 0; linear in θ.
     Theta(Axis),
     /// Every combination of some θ values and some φ values: bilinear, φ wrapping at 360°.
-    Grid {
-        thetas: Axis,
-        phis: Axis,
-        /// Record index of (θ_i, φ_j) at i·phis.len() + j.
-        index: Vec<usize>,
-    },
+    /// The record of (θ_i, φ_j) is record i·phis.len() + j (the file's order).
+    Grid { thetas: Axis, phis: Axis },
     /// Scattered incidences: the nearest stored one.
     Nearest,
 }
@@ -104,6 +101,9 @@ pub(crate) struct Axis {
     /// (n − 1)/(last − first): the cell of an evenly spaced axis (the usual one) is guessed with
     /// one multiplication, then checked; a search settles anything else.
     inv_step: f64,
+    /// 1/(x_{i+1} − x_i) when every cell has the same width (exactly), else 0: the fraction is
+    /// then a multiplication (equal to the division to rounding).
+    inv_width: f64,
 }
 
 impl Axis {
@@ -114,7 +114,13 @@ impl Axis {
         } else {
             0.0
         };
-        Axis { xs, inv_step }
+        let uniform = n > 1 && xs.windows(2).all(|p| p[1] - p[0] == xs[1] - xs[0]);
+        let inv_width = if uniform { 1.0 / (xs[1] - xs[0]) } else { 0.0 };
+        Axis {
+            xs,
+            inv_step,
+            inv_width,
+        }
     }
 
     fn first(&self) -> f64 {
@@ -126,6 +132,7 @@ impl Axis {
     }
 
     /// Index i and fraction t with xs[i] ≤ x ≤ xs[i+1] (x clamped to the range).
+    #[inline(always)]
     fn bracket(&self, x: f64) -> (usize, f64) {
         let xs = &self.xs;
         if xs.len() == 1 || x.is_nan() || x <= xs[0] {
@@ -141,7 +148,11 @@ impl Axis {
         } else {
             xs.partition_point(|&v| v <= x) - 1
         };
-        (i, (x - xs[i]) / (xs[i + 1] - xs[i]))
+        if self.inv_width > 0.0 {
+            (i, (x - xs[i]) * self.inv_width)
+        } else {
+            (i, (x - xs[i]) / (xs[i + 1] - xs[i]))
+        }
     }
 }
 
@@ -159,26 +170,33 @@ impl Lattice {
         if thetas.len() * phis.len() != recs.len() {
             return Lattice::Nearest;
         }
-        let mut index = Vec::with_capacity(recs.len());
         for (i, t) in thetas.iter().enumerate() {
             for (j, p) in phis.iter().enumerate() {
                 let r = &recs[i * phis.len() + j];
                 if r.theta_i as f64 != *t || r.phi_i as f64 != *p {
                     return Lattice::Nearest;
                 }
-                index.push(i * phis.len() + j);
             }
         }
         Lattice::Grid {
             thetas: Axis::new(thetas),
             phis: Axis::new(phis),
-            index,
         }
     }
 
     /// The records to blend for a query incidence (θ, φ in degrees) and the incidence they are
     /// evaluated at: θ clamped to the stored range, or a scattered file's nearest record's own.
-    pub(crate) fn blend(&self, m: &Material, theta: f64, phi: f64) -> (Blend, f64, f64) {
+    /// Heap bytes held.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        match self {
+            Lattice::Theta(a) => a.xs.capacity() * 8,
+            Lattice::Grid { thetas, phis } => (thetas.xs.capacity() + phis.xs.capacity()) * 8,
+            Lattice::Nearest => 0,
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn blend(&self, recs: &[Rec], theta: f64, phi: f64) -> (Blend, f64, f64) {
         match self {
             Lattice::Theta(thetas) => {
                 let (i, t) = thetas.bracket(theta);
@@ -192,11 +210,7 @@ impl Lattice {
                 }
                 (b, theta.clamp(thetas.first(), thetas.last()), phi)
             }
-            Lattice::Grid {
-                thetas,
-                phis,
-                index,
-            } => {
+            Lattice::Grid { thetas, phis } => {
                 let (i, t) = thetas.bracket(theta);
                 let i1 = (i + 1).min(thetas.xs.len() - 1);
                 // φ cells wrap: between the last φ and the first + 360°.
@@ -217,12 +231,12 @@ impl Lattice {
                     rec: [0; 4],
                     w: [0.0; 4],
                 };
-                b.push(index[i * np + j0], (1.0 - t) * (1.0 - u));
-                b.push(index[i * np + j1], (1.0 - t) * u);
-                b.push(index[i1 * np + j0], t * (1.0 - u));
-                b.push(index[i1 * np + j1], t * u);
+                b.push(i * np + j0, (1.0 - t) * (1.0 - u));
+                b.push(i * np + j1, (1.0 - t) * u);
+                b.push(i1 * np + j0, t * (1.0 - u));
+                b.push(i1 * np + j1, t * u);
                 if b.n == 0 {
-                    b = Blend::one(index[i * np + j0]);
+                    b = Blend::one(i * np + j0);
                 }
                 // One stored azimuth is clamped to like θ: its records are used whole, at
                 // their own φ, as every other query outside the stored range is.
@@ -232,13 +246,13 @@ impl Lattice {
             Lattice::Nearest => {
                 let q = dir_from_deg(theta, phi);
                 let mut best = (f64::NEG_INFINITY, 0);
-                for (i, r) in m.records.iter().enumerate() {
+                for (i, r) in recs.iter().enumerate() {
                     let c = dot(q, dir_from_deg(r.theta_i as f64, r.phi_i as f64));
                     if c > best.0 {
                         best = (c, i);
                     }
                 }
-                let r = &m.records[best.1];
+                let r = &recs[best.1];
                 (Blend::one(best.1), r.theta_i as f64, r.phi_i as f64)
             }
         }

@@ -2,12 +2,14 @@
 //! allocating), blending between stored incidences, importance sampling, spectrum to colour and
 //! the C ABI. Uses [`crate::model`] and [`crate::format`] only.
 
+mod batch;
 pub mod capi;
 mod cie;
 pub mod color;
 pub mod decoder;
 mod evaluator;
 mod lattice;
+mod resident;
 pub mod sampling;
 
 pub use decoder::Decoder;

@@ -26,7 +26,6 @@ use super::lattice::{unit, QueryFrame};
 use crate::model::angles::{angle_between, dir_from_deg, dot, normalize};
 use crate::model::lobes::MicrofacetGeometry;
 use crate::model::material::{LobeKind, MAX_LOBES};
-use crate::model::sh::sh_count;
 use std::f64::consts::PI;
 
 /// A direction drawn by [`Decoder::sample`](crate::Decoder::sample): the unit outgoing vector (toward the viewer, local
@@ -71,35 +70,36 @@ struct LobeWeight {
 
 impl SamplingWeights {
     pub(crate) fn new(dec: &Evaluator) -> Self {
-        let m = &dec.material;
-        let bmean = basis_means(m);
-        let integrals = cosine_integrals(m.sh_level);
-        let mut background = Vec::with_capacity(m.records.len());
-        let mut lobes = Vec::with_capacity(m.records.len());
-        for (r, rec) in m.records.iter().enumerate() {
-            let t = rec.terms;
-            let p = sh_count(rec.sh_level);
+        let res = &dec.res;
+        let bmean = basis_means(res);
+        let integrals = cosine_integrals(res.sh_level);
+        let mut background = Vec::with_capacity(res.recs.len());
+        let mut lobes = Vec::with_capacity(res.recs.len());
+        for (r, rec) in res.recs.iter().enumerate() {
+            let t = rec.terms as usize;
+            let level = rec.level as usize;
             // Only the m = 0 functions survive the integral against max(0, cos θ).
             let mut e = 0.0;
-            for (l, integral) in integrals.iter().enumerate().take(rec.sh_level + 1) {
+            for (l, integral) in integrals.iter().enumerate().take(level + 1) {
                 let j = l * (l + 1);
-                let a: f64 = (0..t).map(|k| bmean[k] * rec.sh[k * p + j] as f64).sum();
+                let a: f64 = (0..t)
+                    .map(|k| bmean[k] * res.sh_row(rec, k)[j] as f64)
+                    .sum();
                 e += a * integral;
             }
             background.push(e);
             let wi = dir_from_deg(rec.theta_i as f64, rec.phi_i as f64);
             let incidence = (rec.theta_i as f64, rec.phi_i as f64);
-            let per_lobe = rec
-                .lobes
-                .iter()
-                .enumerate()
-                .map(|(li, lobe)| {
+            let per_lobe = (0..rec.nlobes as usize)
+                .map(|li| {
+                    let lobe = res.lobe(rec, li);
                     // The Gaussian's proposal width: the geometric mean of the per-term widths,
                     // weighted by each term's share of the spectrum-averaged amplitude.
                     let ln_width = if lobe.kind == LobeKind::AngleGaussian {
+                        let ln_b = &res.ln_params[lobe.par as usize..lobe.par as usize + t];
                         let (mut num, mut den) = (0.0, 0.0);
-                        let terms = lobe.amplitude.iter().zip(&bmean).take(t);
-                        for ((&p, &mean), &ln_b) in terms.zip(&dec.ln_params[r][li]) {
+                        let terms = res.amplitudes(rec, lobe, 0).iter().zip(&bmean);
+                        for ((&p, &mean), &ln_b) in terms.zip(ln_b) {
                             let s = (p as f64 * mean).abs();
                             num += s * ln_b;
                             den += s;
@@ -107,7 +107,7 @@ impl SamplingWeights {
                         if den > 0.0 {
                             num / den
                         } else {
-                            dec.ln_params[r][li][0]
+                            ln_b[0]
                         }
                     } else {
                         0.0
@@ -121,21 +121,32 @@ impl SamplingWeights {
         }
         SamplingWeights { background, lobes }
     }
+
+    /// Heap bytes held.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        8 * self.background.capacity()
+            + std::mem::size_of::<Vec<LobeWeight>>() * self.lobes.capacity()
+            + self
+                .lobes
+                .iter()
+                .map(|l| std::mem::size_of::<LobeWeight>() * l.capacity())
+                .sum::<usize>()
+    }
 }
 
 /// The mean of each basis function over the file's wavelengths: Σ_k c_k·mean_k is the
 /// spectrum-averaged value of a coefficient vector c.
-fn basis_means(m: &crate::model::material::Material) -> Vec<f64> {
-    let k = m.spectral.terms;
+fn basis_means(res: &super::resident::Resident) -> Vec<f64> {
+    let k = res.spectrum.terms();
     let mut sum = vec![0.0; k];
     let mut b = vec![0.0; k];
-    for &l in &m.wavelengths {
-        m.spectral.eval(l as f64, &mut b);
+    for &l in &res.wavelengths {
+        res.spectrum.basis(l as f64, &mut b);
         for (s, v) in sum.iter_mut().zip(&b) {
             *s += v;
         }
     }
-    let n = m.wavelengths.len().max(1) as f64;
+    let n = res.wavelengths.len().max(1) as f64;
     sum.iter().map(|s| s / n).collect()
 }
 
@@ -171,32 +182,32 @@ fn lobe_energy(
     shape: Shape,
     wi: [f64; 3],
 ) -> f64 {
-    let rec = &dec.material.records[r];
-    let lobe = &rec.lobes[li];
-    let t = rec.terms;
+    let res = &dec.res;
+    let rec = &res.recs[r];
+    let lobe = res.lobe(rec, li);
+    let t = rec.terms as usize;
+    let params = res.params(rec, lobe);
     let mean_amp = |j: usize| -> f64 {
-        (0..t)
-            .map(|k| lobe.amplitude[j * t + k] as f64 * bmean[k])
-            .sum()
+        let amp = res.amplitudes(rec, lobe, j);
+        (0..t).map(|k| amp[k] as f64 * bmean[k]).sum()
     };
     let value = |wo: [f64; 3]| -> f64 {
         match lobe.kind {
             LobeKind::AngleGaussian => {
-                let a2 = angle_between(wo, dec.peaks[r]).powi(2);
+                let a2 = angle_between(wo, rec.peak).powi(2);
+                let amp = res.amplitudes(rec, lobe, 0);
                 (0..t)
-                    .map(|k| {
-                        lobe.amplitude[k] as f64 * bmean[k] * (-a2 / lobe.params[k] as f64).exp()
-                    })
+                    .map(|k| amp[k] as f64 * bmean[k] * (-a2 / params[k] as f64).exp())
                     .sum()
             }
             LobeKind::CosinePower => {
-                let g = dot(wo, dec.peaks[r]).clamp(0.0, 1.0);
-                mean_amp(0) * g.powf(lobe.params[0] as f64)
+                let g = dot(wo, rec.peak).clamp(0.0, 1.0);
+                mean_amp(0) * g.powf(params[0] as f64)
             }
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
                 match MicrofacetGeometry::new(wi, wo) {
                     Some(g) => {
-                        let v = g.variants(&lobe.params, lobe.kind == LobeKind::MicrofacetSin2);
+                        let v = g.variants(params, lobe.kind == LobeKind::MicrofacetSin2);
                         (0..4).map(|j| mean_amp(j) * v[j]).sum()
                     }
                     None => 0.0,
@@ -405,15 +416,16 @@ fn lobe_shape(
     incidence: (f64, f64),
     wi: [f64; 3],
 ) -> Shape {
-    let m = &dec.material;
-    let lobe0 = &m.records[recs[0]].lobes[li];
+    let res = &dec.res;
+    let rec0 = &res.recs[recs[0]];
+    let lobe0 = res.lobe(rec0, li);
     let geo_mean = |param: usize| -> f64 {
         if recs.len() == 1 {
-            return lobe0.params[param] as f64;
+            return res.params[lobe0.par as usize + param] as f64;
         }
         recs.iter()
             .zip(ws)
-            .map(|(&r, &w)| w * dec.ln_params[r][li][param])
+            .map(|(&r, &w)| w * res.ln_params[res.lobe(&res.recs[r], li).par as usize + param])
             .sum::<f64>()
             .exp()
     };
@@ -452,7 +464,7 @@ struct Mixture {
 
 impl Mixture {
     fn new(dec: &Evaluator, sw: &SamplingWeights, q: &QueryFrame) -> Self {
-        let m = &dec.material;
+        let res = &dec.res;
         let (blend, wi, theta, phi) = dec.resolve(q.theta, q.phi, Some(q.wi));
         let recs = &blend.rec[..blend.n];
         let ws = &blend.w[..blend.n];
@@ -469,17 +481,15 @@ impl Mixture {
             .sum::<f64>();
         let max_lobes = recs
             .iter()
-            .map(|&r| m.records[r].lobes.len())
+            .map(|&r| res.recs[r].nlobes as usize)
             .max()
             .unwrap_or(0);
+        let kind_at = |r: usize, li: usize| (res.recs[r].kinds >> (4 * li)) & 15;
         let mut ln_widths = [0.0; 4];
         for li in 0..max_lobes {
             // The lobes are shared or not exactly as the evaluation decides.
-            let kind = m.records[recs[0]].lobes.get(li).map(|l| l.kind);
-            let shared = kind.is_some()
-                && recs
-                    .iter()
-                    .all(|&r| m.records[r].lobes.get(li).map(|l| l.kind) == kind);
+            let kind = kind_at(recs[0], li);
+            let shared = kind != 0 && recs.iter().all(|&r| kind_at(r, li) == kind);
             if shared {
                 let energy: f64 = recs
                     .iter()

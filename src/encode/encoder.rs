@@ -57,6 +57,11 @@ pub struct EncodeOptions {
     /// Auto keeps the records fitted to it, and the encoder says where it lies below the
     /// held-out error.
     pub budget_given: bool,
+    /// What the `meta` chunk keeps (`--meta`).
+    pub meta: MetaLevel,
+    /// The newest minor format version the file may use (`--format 1.0` gives files every 1.0
+    /// reader reads; 1.1 stores evenly spaced wavelengths as a range).
+    pub format_minor: u16,
 }
 
 /// What kind of model an encode writes.
@@ -80,6 +85,29 @@ impl ModelChoice {
             ModelChoice::Auto => "auto",
             ModelChoice::Records => "records",
             ModelChoice::Shared => "shared",
+        }
+    }
+}
+
+/// What the file's `meta` chunk keeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum MetaLevel {
+    /// The encoder, the inputs, every option that shaped the file, provenance, the overall
+    /// error (the default).
+    #[default]
+    Full,
+    /// The encoder, the options that differ from its defaults, provenance, the overall error.
+    Short,
+    /// No `meta` chunk.
+    None,
+}
+
+impl MetaLevel {
+    pub fn name(self) -> &'static str {
+        match self {
+            MetaLevel::Full => "full",
+            MetaLevel::Short => "short",
+            MetaLevel::None => "none",
         }
     }
 }
@@ -124,6 +152,8 @@ impl Default for EncodeOptions {
             model: ModelChoice::Auto,
             held_out: false,
             budget_given: false,
+            meta: MetaLevel::Full,
+            format_minor: crate::format::VERSION_MINOR,
         }
     }
 }
@@ -237,11 +267,26 @@ pub struct Encoded {
 
 /// Encodes `set` with the model `opts.model` names.
 pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
+    encode_with_progress(set, opts, None)
+}
+
+/// [`encode`], reporting progress as the records' incidences finish (the command line draws a
+/// bar; the other models of [`ModelChoice::Auto`] are not counted).
+pub fn encode_with_progress(
+    set: &SampleSet,
+    opts: &EncodeOptions,
+    progress: Option<Progress>,
+) -> Result<Encoded> {
     match opts.model {
-        ModelChoice::Records => encode_records(set, opts),
+        ModelChoice::Records => encode_records_with_progress(set, opts, progress),
         ModelChoice::Shared => crate::encode::shared::encode_shared(set, opts),
-        ModelChoice::Auto => encode_auto(set, opts),
+        ModelChoice::Auto => encode_auto(set, opts, progress),
     }
+}
+
+/// Per-incidence records ([`ModelChoice::Records`]).
+pub fn encode_records(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
+    encode_records_with_progress(set, opts, None)
 }
 
 /// [`ModelChoice::Auto`]: records fitted to the budget at the samples, unless the input looks
@@ -251,12 +296,16 @@ pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
 /// (they invent light where that floor reads about 0). Then the records held to the budget between
 /// the samples and, for isotropic inputs, the shared factor model are fitted too, and the file
 /// holds whichever of the three predicts held-out samples best (`EVALUATION.md`, "Which model").
-fn encode_auto(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
+fn encode_auto(
+    set: &SampleSet,
+    opts: &EncodeOptions,
+    progress: Option<Progress>,
+) -> Result<Encoded> {
     let classic_opts = EncodeOptions {
         held_out: false,
         ..opts.clone()
     };
-    let classic = encode_records(set, &classic_opts)?;
+    let classic = encode_records_with_progress(set, &classic_opts, progress)?;
     let eps = crate::encode::validate::log_epsilon(set);
     let measured = !opts.budget_given
         && opts.peak == PeakMode::Joint
@@ -317,7 +366,8 @@ fn encode_auto(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
             cv(&held_opts)?,
         ),
     ];
-    if set.is_isotropic() {
+    // The factor model is a format 1.1 feature: not a candidate under --format 1.0.
+    if set.is_isotropic() && opts.format_minor >= crate::format::VERSION_MINOR_FACTOR {
         let shared = crate::encode::shared::encode_shared(set, opts)?;
         if let Some(h) = shared.held_out {
             candidates.push(("the factor model shared by every incidence", shared, h));
@@ -383,9 +433,17 @@ fn classic_log_error(e: &Encoded, set: &SampleSet, eps: f64) -> f64 {
     sums.log()
 }
 
+/// Called as incidences finish: (incidences fitted, incidences in all), from any thread.
+pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
+
 /// Fits every incident direction (in parallel; the result does not depend on the thread count,
 /// since each incidence is fitted alone and results are collected in order).
-pub fn encode_records(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
+/// Per-incidence records (`ModelChoice::Records`), reporting progress as incidences finish.
+pub fn encode_records_with_progress(
+    set: &SampleSet,
+    opts: &EncodeOptions,
+    progress: Option<Progress>,
+) -> Result<Encoded> {
     set.validate()
         .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
     let (terms, table) = opts.terms_and_table(set);
@@ -408,6 +466,8 @@ pub fn encode_records(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> 
         held_out: opts.held_out,
         log_epsilon: crate::encode::validate::log_epsilon(set),
     };
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let total = set.incidences.len();
     let fitted: Vec<_> = set
         .incidences
         .par_iter()
@@ -449,6 +509,12 @@ pub fn encode_records(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> 
                 let (e, r) = ctx.measure(&f.record, s);
                 f.sq_error = e;
                 f.record.rel_error = stored_error(rel(e, r));
+            }
+            if let Some(p) = progress {
+                p(
+                    done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
+                    total,
+                );
             }
             Ok((f, note))
         })
@@ -518,15 +584,18 @@ pub fn encode_records(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> 
             t.values.truncate(used * t.nodes.len());
         }
     }
-    let metadata = metadata_json(opts, rel_error);
+    let metadata = match opts.meta {
+        MetaLevel::None => None,
+        level => Some(metadata_json(opts, rel_error, level == MetaLevel::Short)),
+    };
     let material = Material {
-        version_minor: crate::format::VERSION_MINOR,
+        version_minor: opts.format_minor.min(crate::format::VERSION_MINOR),
         spectral,
         sh_level: opts.effective_sh_level(),
         isotropic: set.is_isotropic(),
         wavelengths: set.wavelengths.iter().map(|&w| w as f32).collect(),
         records,
-        metadata: Some(metadata),
+        metadata,
         // Positions beyond the format's per-set limit are not stored (decode then needs --like).
         sample_positions: (opts.sample_positions
             && set
@@ -551,7 +620,8 @@ pub fn encode_records(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> 
     })
 }
 
-pub(crate) fn metadata_json(opts: &EncodeOptions, rel_error: f64) -> String {
+/// The options that shaped a file, as `meta` records them.
+fn metadata_options(opts: &EncodeOptions) -> serde_json::Map<String, serde_json::Value> {
     use serde_json::{json, Map};
     // Only the options that shaped this file, so the metadata stays small next to the model.
     let mut options = Map::new();
@@ -583,14 +653,32 @@ pub(crate) fn metadata_json(opts: &EncodeOptions, rel_error: f64) -> String {
         _ => {}
     }
     options.insert("precision".into(), json!(opts.precision.name()));
-    metadata_envelope(options, opts, rel_error)
+    options
 }
 
-/// The metadata around a model's own `options`: encoder, inputs, provenance, pooled error.
+/// The `meta` text: compact JSON. `short` keeps only the options that differ from the
+/// encoder's defaults (and no input names).
+pub(crate) fn metadata_json(opts: &EncodeOptions, rel_error: f64, short: bool) -> String {
+    let mut options = metadata_options(opts);
+    if short {
+        // What the defaults of this encoder would write: dropped (the encoder and its version
+        // are kept, and spec/FORMAT.md §3.4 lists its defaults).
+        let defaults = metadata_options(&EncodeOptions {
+            max_error: Some(DEFAULT_MAX_ERROR),
+            ..EncodeOptions::default()
+        });
+        options.retain(|k, v| defaults.get(k) != Some(v));
+    }
+    metadata_envelope(options, opts, rel_error, short)
+}
+
+/// The metadata around a model's own `options`: encoder, inputs (not when `short`),
+/// provenance, pooled error.
 pub(crate) fn metadata_envelope(
     options: serde_json::Map<String, serde_json::Value>,
     opts: &EncodeOptions,
     rel_error: f64,
+    short: bool,
 ) -> String {
     use serde_json::{json, Map, Value};
     let mut v = Map::new();
@@ -599,7 +687,7 @@ pub(crate) fn metadata_envelope(
         json!(format!("sbrdf {}", env!("CARGO_PKG_VERSION"))),
     );
     v.insert("options".into(), Value::Object(options));
-    if !opts.inputs.is_empty() {
+    if !opts.inputs.is_empty() && !short {
         v.insert("inputs".into(), json!(opts.inputs));
     }
     if !opts.provenance.is_empty() {

@@ -2,7 +2,7 @@
 //! selection, defaults, the error budget's verdict): one place that the command line and the
 //! Python binding both call, so that both validate, default and report alike.
 
-use crate::encode::encoder::{encode, EncodeOptions, Encoded, ModelChoice, DEFAULT_MAX_ERROR};
+use crate::encode::encoder::{EncodeOptions, Encoded, ModelChoice, DEFAULT_MAX_ERROR};
 use crate::encode::fit::LobeFamily;
 use crate::encode::fit::{CriticalAngle, PeakMode};
 use crate::encode::samples::{ReadOptions, ReadReport, RgbToSpectrum, SampleSet};
@@ -31,7 +31,7 @@ pub struct EncodeSettings {
 }
 
 /// The option names `EncodeSettings::set` knows, as the command line spells them.
-pub const NAMES: [&str; 15] = [
+pub const NAMES: [&str; 17] = [
     "model",
     "basis",
     "terms",
@@ -47,6 +47,8 @@ pub const NAMES: [&str; 15] = [
     "wavelengths",
     "incident-max",
     "rgb-to-spectrum",
+    "meta",
+    "format",
 ];
 
 fn bad(name: &str, value: &str, expected: &str) -> Error {
@@ -146,6 +148,26 @@ pub fn parse_rgb_to_spectrum(s: &str) -> Result<RgbToSpectrum> {
     })
 }
 
+/// `full`, `short` or `none`.
+pub fn parse_meta(s: &str) -> Result<crate::encode::encoder::MetaLevel> {
+    use crate::encode::encoder::MetaLevel;
+    match s.trim() {
+        "full" => Ok(MetaLevel::Full),
+        "short" => Ok(MetaLevel::Short),
+        "none" => Ok(MetaLevel::None),
+        _ => Err(bad("meta", s, "full, short or none")),
+    }
+}
+
+/// `1.0` or `1.1`: the newest minor version a file may use.
+pub fn parse_format(s: &str) -> Result<u16> {
+    match s.trim() {
+        "1.0" => Ok(0),
+        "1.1" => Ok(1),
+        _ => Err(bad("format", s, "1.0 or 1.1")),
+    }
+}
+
 /// `KEY=VALUE`.
 pub fn parse_metadata(s: &str) -> Result<(String, String)> {
     let (k, v) = s
@@ -191,6 +213,8 @@ impl EncodeSettings {
             "metadata" => e.provenance.push(parse_metadata(value)?),
             "no-sample-positions" => e.sample_positions = !parse_bool(&key, value)?,
             "wavelengths" => self.wavelengths = Some(parse_window(&key, value)?),
+            "meta" => e.meta = parse_meta(value)?,
+            "format" => e.format_minor = parse_format(value)?,
             "incident-max" => {
                 self.incident_max = Some(
                     value
@@ -255,6 +279,17 @@ pub fn encode_samples(
     inputs: &[String],
     s: &EncodeSettings,
 ) -> Result<Outcome> {
+    encode_samples_with_progress(set, report, inputs, s, None)
+}
+
+/// [`encode_samples`], reporting progress as incidences finish.
+pub fn encode_samples_with_progress(
+    set: SampleSet,
+    report: &ReadReport,
+    inputs: &[String],
+    s: &EncodeSettings,
+    progress: Option<crate::encode::encoder::Progress>,
+) -> Result<Outcome> {
     let set = if s.wavelengths.is_some() || s.incident_max.is_some() {
         set.restricted(s.wavelengths, s.incident_max)
             .map_err(|e| Error::Parameter(format!("{}: {e}", inputs.join(", "))))?
@@ -277,7 +312,7 @@ pub fn encode_samples(
     }
     let mut opts = s.options(inputs);
     opts.provenance.extend(report.provenance.iter().cloned());
-    let encoded = encode(&set, &opts)?;
+    let encoded = crate::encode::encoder::encode_with_progress(&set, &opts, progress)?;
     messages.extend(encoded.notes.iter().map(|n| format!("note: {n}")));
     if !encoded.unmet.is_empty() {
         let m = &encoded.material;

@@ -3,7 +3,9 @@
 //! measured incidence (the format's records carry the incidences, their sample positions and
 //! their errors).
 
-use crate::encode::encoder::{metadata_envelope, sample_positions, EncodeOptions, Encoded};
+use crate::encode::encoder::{
+    metadata_envelope, sample_positions, EncodeOptions, Encoded, MetaLevel,
+};
 use crate::encode::fit::factor::{fit_factor, score, FactorOptions};
 use crate::encode::fit::stored_error;
 use crate::encode::samples::SampleSet;
@@ -39,6 +41,13 @@ fn empty_record(theta_i: f64, phi_i: f64, rel_error: f32) -> IncidentRecord {
 pub fn encode_shared(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
     set.validate()
         .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
+    if opts.format_minor < VERSION_MINOR_FACTOR {
+        return Err(Error::Parameter(
+            "--model shared writes a factor model, a format 1.1 feature: drop --format 1.0, or \
+             use --model records"
+                .into(),
+        ));
+    }
     if !set.is_isotropic() {
         return Err(Error::Parameter(
             "--model shared fits an isotropic model: the input must give incidences at φi = 0 \
@@ -88,7 +97,15 @@ pub fn encode_shared(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         isotropic: true,
         wavelengths: set.wavelengths.iter().map(|&w| w as f32).collect(),
         records,
-        metadata: Some(metadata_envelope(options, opts, rel_error)),
+        metadata: match opts.meta {
+            MetaLevel::None => None,
+            level => Some(metadata_envelope(
+                options,
+                opts,
+                rel_error,
+                level == MetaLevel::Short,
+            )),
+        },
         sample_positions: (opts.sample_positions
             && set
                 .incidences

@@ -16,7 +16,33 @@ pub use write::{f16_scale, quantize_record_f16, write_material};
 /// line-ending translation, 0x1A stops `type` on old systems (PNG's design).
 pub const SIGNATURE: [u8; 10] = [0x89, b'S', b'B', b'R', b'D', b'F', 0x0D, 0x0A, 0x1A, 0x0A];
 pub const VERSION_MAJOR: u16 = 1;
-pub const VERSION_MINOR: u16 = 0;
+/// The newest minor version this crate reads and writes. A file is written as 1.1 only when it
+/// uses a 1.1 feature (a wavelength range, [`FLAG_WAVELENGTH_RANGE`], or a factor model, `FACT`);
+/// otherwise it is 1.0, byte for byte.
+pub const VERSION_MINOR: u16 = 1;
+
+/// `HEAD` flag bit 0: only φi = 0 is stored; other azimuths are answered by rotation.
+pub const FLAG_ISOTROPIC: u32 = 1;
+/// `HEAD` flag bit 1 (version 1.1): the wavelengths are evenly spaced and `HEAD` stores the
+/// first and the last only ([`range_wavelengths`]).
+pub const FLAG_WAVELENGTH_RANGE: u32 = 2;
+
+/// The W wavelengths of a range from its first and last (`spec/FORMAT.md` §3.1): λ_i = λ_0 +
+/// (i·(λ_{W−1} − λ_0))/(W − 1) in binary64, in that order, rounded to the nearest f32.
+pub fn range_wavelengths(first: f32, last: f32, w: usize) -> impl Iterator<Item = f32> {
+    let (a, span) = (first as f64, last as f64 - first as f64);
+    let n = w.saturating_sub(1).max(1) as f64;
+    (0..w).map(move |i| (a + (i as f64 * span) / n) as f32)
+}
+
+/// Whether a wavelength list can be stored as a range: at least three, each exactly what
+/// [`range_wavelengths`] gives from the first and the last.
+pub fn is_wavelength_range(w: &[f32]) -> bool {
+    w.len() >= 3
+        && range_wavelengths(w[0], w[w.len() - 1], w.len())
+            .zip(w)
+            .all(|(a, b)| a.to_bits() == b.to_bits())
+}
 /// The only angle convention so far (see `spec/EVALUATION.md`).
 pub const ANGLE_CONVENTION: u8 = 1;
 

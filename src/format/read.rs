@@ -116,10 +116,13 @@ fn read_head(f: &mut Fields) -> Result<Head> {
              (a newer major version changes meaning: upgrade sbrdf to read it)"
         )));
     }
+    // Flags before anything else: a flag of a newer minor version may change HEAD's layout
+    // (spec/FORMAT.md §7), so an unknown one is reported as unsupported, not as a bad length.
     let flags = f.u32("flags")?;
-    if flags & !1 != 0 {
+    if flags & !(FLAG_ISOTROPIC | FLAG_WAVELENGTH_RANGE) != 0 {
         return Err(f.unsupported(format!("unknown flag bits {flags:#x} set")));
     }
+    let range = flags & FLAG_WAVELENGTH_RANGE != 0;
     let basis_code = f.u8("spectral_basis")?;
     let basis = SpectralBasis::from_code(basis_code)
         .ok_or_else(|| f.unsupported(format!("unknown spectral basis code {basis_code}")))?;
@@ -141,18 +144,36 @@ fn read_head(f: &mut Fields) -> Result<Head> {
     let lambda_max = f.f64("lambda_max")?;
     let w = f.u32("wavelength_count")? as usize;
     let n = f.u32("incident_count")? as usize;
-    // Check the counts against the bytes present before allocating anything for them.
-    let need = (w as u64) * 4 + (n as u64) * 8;
+    if range && w < 2 {
+        return Err(f.malformed(format!(
+            "a wavelength range of {w} wavelength: the range flag needs at least 2"
+        )));
+    }
+    // Check the counts against the bytes present before allocating anything for them. A range
+    // stores 2 wavelengths of W (at most 65 536, so W values are bounded by the format).
+    let stored = if range { 2 } else { w as u64 };
+    let need = stored * 4 + (n as u64) * 8;
     if need != f.remaining() as u64 {
         return Err(f.malformed(format!(
-            "{w} wavelengths and {n} incident directions need {need} bytes, the chunk has {}",
+            "{stored} stored wavelengths and {n} incident directions need {need} bytes, the \
+             chunk has {}",
             f.remaining()
         )));
     }
-    let mut wavelengths = Vec::with_capacity(w);
-    for _ in 0..w {
-        wavelengths.push(f.f32("wavelength")?);
-    }
+    let wavelengths = if range {
+        let first = f.f32("first_wavelength")?;
+        let last = f.f32("last_wavelength")?;
+        if w > MAX_WAVELENGTHS {
+            return Err(f.malformed(format!("{w} wavelengths (1 to {MAX_WAVELENGTHS} allowed)")));
+        }
+        range_wavelengths(first, last, w).collect()
+    } else {
+        let mut wavelengths = Vec::with_capacity(w);
+        for _ in 0..w {
+            wavelengths.push(f.f32("wavelength")?);
+        }
+        wavelengths
+    };
     let mut incidences = Vec::with_capacity(n);
     for _ in 0..n {
         incidences.push([f.f32("theta_i")?, f.f32("phi_i")?]);
@@ -161,7 +182,7 @@ fn read_head(f: &mut Fields) -> Result<Head> {
     Ok(Head {
         spectral: SpectralSpace::analytic(basis, terms, lambda_min, lambda_max),
         sh_level,
-        isotropic: flags & 1 == 1,
+        isotropic: flags & FLAG_ISOTROPIC != 0,
         minor,
         wavelengths,
         incidences,

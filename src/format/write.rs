@@ -64,16 +64,23 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     let mut out = Vec::new();
     out.extend_from_slice(&SIGNATURE);
 
-    let mut d = Vec::with_capacity(HEAD_FIXED + 4 * m.wavelengths.len() + 8 * m.records.len());
-    d.extend_from_slice(&VERSION_MAJOR.to_le_bytes());
-    // 1.1 only where a 1.1 feature is used: other files stay readable byte for byte as 1.0.
-    let minor = if m.factor.is_some() {
+    // Version 1.1's range is used when the material allows 1.1 features and its wavelengths
+    // are evenly spaced; a factor model (FACT) is a 1.1 feature whatever the material asks. A
+    // file without 1.1 features is written as 1.0, byte for byte.
+    let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
+    let minor: u16 = if range || m.factor.is_some() {
         VERSION_MINOR_FACTOR
     } else {
-        VERSION_MINOR
+        0
     };
+    let mut flags = if m.isotropic { FLAG_ISOTROPIC } else { 0 };
+    if range {
+        flags |= FLAG_WAVELENGTH_RANGE;
+    }
+    let mut d = Vec::with_capacity(HEAD_FIXED + 4 * m.wavelengths.len() + 8 * m.records.len());
+    d.extend_from_slice(&VERSION_MAJOR.to_le_bytes());
     d.extend_from_slice(&minor.to_le_bytes());
-    d.extend_from_slice(&(m.isotropic as u32).to_le_bytes());
+    d.extend_from_slice(&flags.to_le_bytes());
     d.push(m.spectral.basis.code());
     d.push(0); // reserved (precision is per record)
     d.push(m.sh_level as u8);
@@ -84,8 +91,14 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     d.extend_from_slice(&m.spectral.lambda_max.to_le_bytes());
     d.extend_from_slice(&(m.wavelengths.len() as u32).to_le_bytes());
     d.extend_from_slice(&(m.records.len() as u32).to_le_bytes());
-    for w in &m.wavelengths {
-        d.extend_from_slice(&w.to_le_bytes());
+    if range {
+        let w = &m.wavelengths;
+        d.extend_from_slice(&w[0].to_le_bytes());
+        d.extend_from_slice(&w[w.len() - 1].to_le_bytes());
+    } else {
+        for w in &m.wavelengths {
+            d.extend_from_slice(&w.to_le_bytes());
+        }
     }
     for r in &m.records {
         d.extend_from_slice(&r.theta_i.to_le_bytes());

@@ -1,7 +1,7 @@
 //! Lobe shapes that need more than an angle: evaluated by the decoder and the encoder alike.
 //! Normative text: `spec/EVALUATION.md`, section "Lobes".
 
-use crate::model::angles::{dot, normalize};
+use crate::model::angles::dot;
 
 /// Cosines are kept at least this large so the grazing factors stay finite on the horizon.
 const MIN_COS: f64 = 1e-6;
@@ -47,28 +47,45 @@ pub struct MicrofacetGeometry {
 
 impl MicrofacetGeometry {
     /// None when wi + wo vanishes (opposite directions): every variant is then 0.
+    #[inline(always)]
     pub fn new(wi: [f64; 3], wo: [f64; 3]) -> Option<Self> {
-        let h = normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]])?;
+        let sum = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+        let n2 = dot(sum, sum);
+        if !(n2 > 0.0 && n2.is_finite()) {
+            return None;
+        }
+        // Reciprocals where the formulas divide (equal to rounding).
+        let inv = 1.0 / n2.sqrt();
+        let h = [sum[0] * inv, sum[1] * inv, sum[2] * inv];
         let ch = h[2].clamp(0.0, 1.0);
         let cd = dot(wi, h).clamp(MIN_COS, 1.0);
         let ci = wi[2].max(MIN_COS);
         let co = wo[2].max(MIN_COS);
-        let vc = (1.0 / (ci * co))
-            .min(2.0 * ch / (cd * ci))
-            .min(2.0 * ch / (cd * co));
+        // min(1/(ci·co), 2ch/(cd·ci), 2ch/(cd·co)) = min(1, 2ch·co/cd, 2ch·ci/cd)/(ci·co).
+        let m = 2.0 * ch / cd;
+        let vc = (m * co).min(m * ci).min(1.0) / (ci * co);
+        let g = 1.0 - cd;
+        let g2 = g * g;
         Some(MicrofacetGeometry {
             one_minus_ch: 1.0 - ch,
             sin2_h: 1.0 - ch * ch,
             ci,
             co,
             vc,
-            f: (1.0 - cd).powi(5),
+            f: g2 * g2 * g,
         })
     }
 
     /// [D·Vs, D·Vs·F, D·Vc, D·Vc·F] for parameters `[b, c, a]`.
     pub fn variants(&self, params: &[f32], sin2: bool) -> [f64; 4] {
-        let (b, c, a) = (params[0] as f64, params[1] as f64, params[2] as f64);
+        self.variants_f64([params[0] as f64, params[1] as f64, params[2] as f64], sin2)
+    }
+
+    /// [`MicrofacetGeometry::variants`] for parameters `[b, c, a]` already widened (the decoder
+    /// holds them so, rounded to f32 as the format stores or blends them).
+    #[inline(always)]
+    pub fn variants_f64(&self, params: [f64; 3], sin2: bool) -> [f64; 4] {
+        let [b, c, a] = params;
         let x = if sin2 { self.sin2_h } else { self.one_minus_ch };
         // exp(−c·ln(1 + b·x)): powf's value to ~1.5e-15 relative, about 10% quicker than glibc pow.
         let d = (-c * (1.0 + b * x).ln()).exp();

@@ -22,6 +22,9 @@ pub struct ShBasis {
     level: usize,
     /// K_l^m for m ≥ 0, times √2 where m > 0, indexed by l(l+1)/2 + m.
     norm: Vec<f64>,
+    /// The recurrence's ratios (2l − 1)/(l − m) and (l + m − 1)/(l − m), same index (used for
+    /// l ≥ m + 2): a multiplication where the recurrence divides, for speed.
+    ratio: Vec<[f64; 2]>,
 }
 
 impl ShBasis {
@@ -47,7 +50,25 @@ impl ShBasis {
                 });
             }
         }
-        ShBasis { level, norm }
+        let mut ratio = Vec::with_capacity(norm.len());
+        for l in 0..=level {
+            for m in 0..=l {
+                ratio.push(if l >= m + 2 {
+                    let d = (l - m) as f64;
+                    [(2 * l - 1) as f64 / d, (l + m - 1) as f64 / d]
+                } else {
+                    [0.0; 2]
+                });
+            }
+        }
+        ShBasis { level, norm, ratio }
+    }
+
+    /// The basis of every level the format allows, built once per process and shared: what the
+    /// decoder evaluates with (a per-material copy would cost more than many a record).
+    pub fn shared() -> &'static ShBasis {
+        static ALL: std::sync::OnceLock<ShBasis> = std::sync::OnceLock::new();
+        ALL.get_or_init(|| ShBasis::new(MAX_SH_LEVEL))
     }
 
     pub fn level(&self) -> usize {
@@ -65,6 +86,7 @@ impl ShBasis {
     }
 
     /// [`ShBasis::eval`] for the functions up to `level` (≤ the basis's level) only.
+    #[inline(always)]
     pub fn eval_to_level(&self, level: usize, d: [f64; 3], out: &mut [f64]) {
         let level = level.min(self.level);
         let [x, y, z] = d;
@@ -87,8 +109,8 @@ impl ShBasis {
                     q_prev = q;
                     q = (2 * m + 1) as f64 * z * qmm;
                 } else if l > m + 1 {
-                    let next =
-                        ((2 * l - 1) as f64 * z * q - (l + m - 1) as f64 * q_prev) / (l - m) as f64;
+                    let [a, b] = self.ratio[l * (l + 1) / 2 + m];
+                    let next = a * z * q - b * q_prev;
                     q_prev = q;
                     q = next;
                 }

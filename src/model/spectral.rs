@@ -238,10 +238,11 @@ impl SpectralSpace {
     }
 }
 
-/// Σ_k c_k·B_k(λ) for many λ, with what each query needs computed once: the decoder's form of
-/// [`SpectralSpace::eval`]. The tabulated basis is stored node-major (the K values of a node
-/// side by side) with each interval's reciprocal width; the analytic bases advance cos(jθ),
-/// sin(jθ) by a recurrence from one `sin_cos`, which drifts from the direct formula by ~K·1e-16.
+/// Σ_k c_k·B_k(λ) for many λ, with what each query needs computed once: the decoder's resident
+/// form of [`SpectralSpace::eval`]. The tabulated basis is kept node-major (the K values of a node
+/// side by side) in `f32`, which holds its `f16` or `f32` values exactly, with one reciprocal
+/// step when the nodes are evenly spaced; the analytic bases advance cos(jθ), sin(jθ) by a
+/// recurrence from one `sin_cos`, which drifts from the direct formula by ~K·1e-16.
 #[derive(Debug, Clone)]
 pub struct SpectrumEvaluator {
     terms: usize,
@@ -260,15 +261,21 @@ enum EvaluatorForm {
         scale: f64,
     },
     Table {
-        nodes: Vec<f64>,
+        nodes: Vec<f32>,
         /// values[w·K + k] = B_k(nodes[w]).
-        values: Vec<f64>,
-        /// 1 / (nodes[w+1] − nodes[w]).
-        inv_width: Vec<f64>,
-        /// Some(1/step) when the nodes are evenly spaced (to rounding): the interval is then
-        /// guessed by one multiplication and checked.
+        values: Vec<f32>,
+        /// Some(1/step) when every interval has exactly the same width: the interval is then
+        /// found by one multiplication (checked) and its fraction by another.
         inv_step: Option<f64>,
+        precision: crate::model::Precision,
     },
+}
+
+/// Where a wavelength falls in a tabulated basis: node i and the fraction f toward node i + 1.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    i: usize,
+    f: f64,
 }
 
 impl SpectrumEvaluator {
@@ -287,20 +294,22 @@ impl SpectrumEvaluator {
                     .expect("validated: a tabulated basis has a table");
                 let w = table.nodes.len();
                 let k = space.terms;
-                let mut values = vec![0.0; w * k];
+                let mut values = vec![0.0f32; w * k];
                 for kk in 0..k {
                     for ww in 0..w {
-                        values[ww * k + kk] = table.values[kk * w + ww];
+                        values[ww * k + kk] = table.values[kk * w + ww] as f32;
                     }
                 }
                 let n = &table.nodes;
-                let inv_width: Vec<f64> = n.windows(2).map(|p| 1.0 / (p[1] - p[0])).collect();
-                let inv_step = (w > 1).then(|| (w - 1) as f64 / (n[w - 1] - n[0]));
+                let inv_step = (w > 1)
+                    .then(|| n[1] - n[0])
+                    .filter(|&h| n.windows(2).all(|p| p[1] - p[0] == h))
+                    .map(|h| 1.0 / h);
                 EvaluatorForm::Table {
-                    nodes: table.nodes.clone(),
+                    nodes: n.iter().map(|&x| x as f32).collect(),
                     values,
-                    inv_width,
                     inv_step,
+                    precision: table.precision,
                 }
             }
         };
@@ -312,8 +321,132 @@ impl SpectrumEvaluator {
         }
     }
 
+    pub fn terms(&self) -> usize {
+        self.terms
+    }
+
+    /// The tabulated basis as a file stores it (None for the analytic bases).
+    pub fn table(&self) -> Option<BasisTable> {
+        match &self.form {
+            EvaluatorForm::Table {
+                nodes,
+                values,
+                precision,
+                ..
+            } => {
+                let (w, k) = (nodes.len(), self.terms);
+                let mut rows = vec![0.0; w * k];
+                for kk in 0..k {
+                    for ww in 0..w {
+                        rows[kk * w + ww] = values[ww * k + kk] as f64;
+                    }
+                }
+                Some(BasisTable {
+                    nodes: nodes.iter().map(|&x| x as f64).collect(),
+                    values: rows,
+                    precision: *precision,
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// Heap bytes held (the decoder reports its resident size).
+    pub fn heap_bytes(&self) -> usize {
+        match &self.form {
+            EvaluatorForm::Table { nodes, values, .. } => {
+                4 * (nodes.capacity() + values.capacity())
+            }
+            _ => 0,
+        }
+    }
+
+    /// The cell of λ (not NaN) in a tabulated basis: (i, f) with B_k(λ) = v_k[i] + f·(v_k[i+1] −
+    /// v_k[i]); f = 0 at or below the first node, and (W − 2, 1) at or above the last.
+    #[inline(always)]
+    fn cell(nodes: &[f32], inv_step: Option<f64>, lambda: f64) -> Cell {
+        let w = nodes.len();
+        let first = nodes[0] as f64;
+        if w == 1 || lambda <= first {
+            return Cell { i: 0, f: 0.0 };
+        }
+        if lambda >= nodes[w - 1] as f64 {
+            return Cell { i: w - 2, f: 1.0 };
+        }
+        if let Some(s) = inv_step {
+            let g = (((lambda - first) * s) as usize).min(w - 2);
+            let (lo, hi) = (nodes[g] as f64, nodes[g + 1] as f64);
+            if lo <= lambda && lambda < hi {
+                return Cell {
+                    i: g,
+                    f: (lambda - lo) * s,
+                };
+            }
+        }
+        let i = nodes.partition_point(|&x| x as f64 <= lambda) - 1;
+        let (lo, hi) = (nodes[i] as f64, nodes[i + 1] as f64);
+        Cell {
+            i,
+            f: (lambda - lo) / (hi - lo),
+        }
+    }
+
+    /// B_0..B_{n−1}(λ) into `out[..n]`, n = `out.len()` ≤ K; λ clamped as in
+    /// [`SpectralSpace::eval`] and not NaN.
+    pub fn basis(&self, lambda: f64, out: &mut [f64]) {
+        let out_len = out.len().min(self.terms);
+        let out = &mut out[..out_len];
+        match &self.form {
+            EvaluatorForm::Fourier { scale } => {
+                let l = lambda.clamp(self.lambda_min, self.lambda_max);
+                let (s1, c1) = (scale * (l - self.lambda_min)).sin_cos();
+                let (mut cj, mut sj) = (1.0, 0.0);
+                for (k, o) in out.iter_mut().enumerate() {
+                    if k == 0 {
+                        *o = 0.5;
+                    } else if k % 2 == 1 {
+                        (cj, sj) = (cj * c1 - sj * s1, sj * c1 + cj * s1);
+                        *o = cj;
+                    } else {
+                        *o = sj;
+                    }
+                }
+            }
+            EvaluatorForm::Cosine { scale } => {
+                let l = lambda.clamp(self.lambda_min, self.lambda_max);
+                let x = (scale * (l - self.lambda_min)).cos();
+                let (mut prev, mut cur) = (x, 1.0);
+                for o in out.iter_mut() {
+                    *o = cur;
+                    (prev, cur) = (cur, 2.0 * x * cur - prev);
+                }
+            }
+            EvaluatorForm::Table {
+                nodes,
+                values,
+                inv_step,
+                ..
+            } => {
+                let k = self.terms;
+                let Cell { i, f } = Self::cell(nodes, *inv_step, lambda);
+                if nodes.len() == 1 {
+                    for (o, v) in out.iter_mut().zip(&values[..k]) {
+                        *o = *v as f64;
+                    }
+                    return;
+                }
+                let (r0, r1) = (&values[i * k..i * k + k], &values[(i + 1) * k..(i + 2) * k]);
+                for ((o, &v0), &v1) in out.iter_mut().zip(r0).zip(r1) {
+                    let (v0, v1) = (v0 as f64, v1 as f64);
+                    *o = v0 + f * (v1 - v0);
+                }
+            }
+        }
+    }
+
     /// Σ_k c\[k\]·B_k(λ) over the first `c.len()` (≤ K) terms; λ outside the interval is clamped
     /// as in [`SpectralSpace::eval`]. λ must not be NaN (the decoder answers NaN itself).
+    #[inline(always)]
     pub fn dot(&self, c: &[f64], lambda: f64) -> f64 {
         let c = &c[..c.len().min(self.terms)];
         match &self.form {
@@ -349,29 +482,45 @@ impl SpectrumEvaluator {
             EvaluatorForm::Table {
                 nodes,
                 values,
-                inv_width,
                 inv_step,
+                ..
             } => {
                 let k = self.terms;
-                let w = nodes.len();
-                let row = |i: usize| &values[i * k..i * k + c.len()];
-                if w == 1 || lambda <= nodes[0] {
-                    return c.iter().zip(row(0)).map(|(a, b)| a * b).sum();
+                let n = c.len();
+                let Cell { i, f } = Self::cell(nodes, *inv_step, lambda);
+                if nodes.len() == 1 {
+                    let mut sum = 0.0;
+                    for (a, &b) in c.iter().zip(&values[..n]) {
+                        sum += a * b as f64;
+                    }
+                    return sum;
                 }
-                if lambda >= nodes[w - 1] {
-                    return c.iter().zip(row(w - 1)).map(|(a, b)| a * b).sum();
+                let (r0, r1) = (
+                    &values[i * k..i * k + n],
+                    &values[(i + 1) * k..(i + 1) * k + n],
+                );
+                let mut sum = 0.0;
+                for ((a, &v0), &v1) in c.iter().zip(r0).zip(r1) {
+                    let (v0, v1) = (v0 as f64, v1 as f64);
+                    sum += a * (v0 + f * (v1 - v0));
                 }
-                let guess = inv_step.map(|s| (((lambda - nodes[0]) * s) as usize).min(w - 2));
-                let i = match guess {
-                    Some(g) if nodes[g] <= lambda && lambda < nodes[g + 1] => g,
-                    _ => nodes.partition_point(|&x| x <= lambda) - 1,
-                };
-                let f = (lambda - nodes[i]) * inv_width[i];
-                c.iter()
-                    .zip(row(i).iter().zip(row(i + 1)))
-                    .map(|(a, (v0, v1))| a * (v0 + f * (v1 - v0)))
-                    .sum()
+                sum
             }
+        }
+    }
+
+    /// max(0, Σ_k c_k·B_k(λ)) for every wavelength into `out` (`min` of the two lengths), 0 for
+    /// a wavelength that is not finite: the last step of evaluation
+    /// (`spec/EVALUATION.md`, "Reconstruction", step 5).
+    #[inline(always)]
+    pub fn eval_clamped(&self, c: &[f64], wavelengths: &[f32], out: &mut [f32]) {
+        for (o, &l) in out.iter_mut().zip(wavelengths) {
+            let l = l as f64;
+            *o = if l.is_finite() {
+                self.dot(c, l).max(0.0) as f32
+            } else {
+                0.0
+            };
         }
     }
 }
@@ -472,15 +621,16 @@ mod tests {
     fn evaluator_agrees_with_the_basis_functions() {
         let table = BasisTable {
             nodes: vec![400.0, 410.0, 420.0, 430.0, 450.0, 700.0],
+            // Values a file can hold (the decoder keeps them as f32).
             values: (0..18)
-                .map(|i| ((i * 7919) % 13) as f64 / 13.0 - 0.4)
+                .map(|i| (((i * 7919) % 13) as f64 / 13.0 - 0.4) as f32 as f64)
                 .collect(),
             precision: crate::model::Precision::F32,
         };
         let uniform = BasisTable {
             nodes: (0..31).map(|i| 400.0 + 10.0 * i as f64).collect(),
             values: (0..93)
-                .map(|i| ((i * 104729) % 17) as f64 / 17.0 - 0.3)
+                .map(|i| (((i * 104729) % 17) as f64 / 17.0 - 0.3) as f32 as f64)
                 .collect(),
             precision: crate::model::Precision::F32,
         };
@@ -506,10 +656,21 @@ mod tests {
             for l in [
                 300.0, 395.0, 400.0, 404.9, 410.0, 449.99, 523.7, 550.0, 699.9, 700.0, 800.0,
             ] {
+                if let Some(t) = &s.table {
+                    assert_eq!(ev.table().as_ref(), Some(t), "the table comes back exactly");
+                }
                 for used in [1, s.terms] {
                     s.eval(l, &mut b);
                     let direct: f64 = c[..used].iter().zip(&b).map(|(x, y)| x * y).sum();
                     let fast = ev.dot(&c[..used], l);
+                    // The basis values the batch decoder keeps give the same sum, bit for bit.
+                    let mut bv = vec![0.0; used];
+                    ev.basis(l, &mut bv);
+                    let mut via = 0.0;
+                    for (x, y) in c[..used].iter().zip(&bv) {
+                        via += x * y;
+                    }
+                    assert_eq!(via.to_bits(), (fast + 0.0).to_bits(), "{:?} λ={l}", s.basis);
                     assert!(
                         (fast - direct).abs() <= 1e-12 * (1.0 + direct.abs()),
                         "{:?} K={} λ={l} used={used}: {fast} vs {direct}",

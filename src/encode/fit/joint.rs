@@ -422,6 +422,98 @@ fn record_bytes(
     12 + 40 + terms * sh_count(level) * s + lobe
 }
 
+/// The fits of one incidence, computed when first needed: a shape search per family at the low
+/// and the high level, a least-squares fit per (level, lobe). With a budget the candidates are
+/// visited smallest first and the visit usually ends long before the largest models, so most
+/// shape searches (the high level's above all) are never run. What is computed is what an eager
+/// search would compute, so the choice is the same.
+struct Lazy<'a> {
+    inc: &'a Incidence,
+    families: &'a [LobeFamily],
+    levels: Vec<usize>,
+    lo: usize,
+    hi: usize,
+    /// Per family: the shape searched at the low and at the high level.
+    shapes: Vec<[Option<Vec<f64>>; 2]>,
+    /// Per (level, lobe): fit index = level index · (1 + families) + (0: no lobe, 1 + family).
+    fits: Vec<Option<LevelFit>>,
+}
+
+impl<'a> Lazy<'a> {
+    fn new(inc: &'a Incidence, opts: &'a JointOptions) -> Self {
+        let levels: Vec<usize> = match opts.max_error {
+            Some(_) => (0..=opts.max_sh_level).collect(),
+            None => vec![opts.max_sh_level],
+        };
+        let (lo, hi) = (levels[0], levels[levels.len() - 1]);
+        let per_level = 1 + opts.families.len();
+        Lazy {
+            inc,
+            families: &opts.families,
+            fits: (0..levels.len() * per_level).map(|_| None).collect(),
+            shapes: vec![[None, None]; opts.families.len()],
+            levels,
+            lo,
+            hi,
+        }
+    }
+
+    fn per_level(&self) -> usize {
+        1 + self.families.len()
+    }
+
+    /// (level, lobe family) of fit `fi`.
+    fn describe(&self, fi: usize) -> (usize, Option<LobeFamily>) {
+        let level = self.levels[fi / self.per_level()];
+        let j = fi % self.per_level();
+        (level, (j > 0).then(|| self.families[j - 1]))
+    }
+
+    /// Shapes are searched at two levels only, the lowest and the highest tried, and each level
+    /// reuses the shape found at the nearer one: the best shape moves little with the SH level,
+    /// and the search is most of the cost.
+    fn shape(&mut self, f: usize, level: usize) -> Vec<f64> {
+        let (lo, hi) = (self.lo, self.hi);
+        let high = level * 2 >= lo + hi;
+        let which = if lo == hi { 1 } else { usize::from(high) };
+        if self.shapes[f][which].is_none() {
+            let at = if which == 1 { hi } else { lo.max(1).min(hi) };
+            self.shapes[f][which] = Some(search_shape(self.inc, at, self.families[f]));
+        }
+        self.shapes[f][which].clone().expect("just searched")
+    }
+
+    fn fit(&mut self, fi: usize) -> &LevelFit {
+        if self.fits[fi].is_none() {
+            let (level, family) = self.describe(fi);
+            let lobe = family.map(|fam| {
+                let f = fi % self.per_level() - 1;
+                (fam, self.shape(f, level))
+            });
+            self.fits[fi] = Some(fit_level(self.inc, level, lobe));
+        }
+        self.fits[fi].as_ref().expect("just fitted")
+    }
+
+    /// Index of the fit with the smallest predicted error at all `k` terms (every fit computed)
+    /// among those that can be stored: a lobe narrower than the sampling can sit between the
+    /// samples, where its column is ~0, and least squares then gives it an amplitude beyond f32
+    /// (invisible at the samples, infinite between them). If none can, the first (the lowest
+    /// level without a lobe).
+    fn most_accurate(&mut self, s: &IncidentSamples, k: usize) -> usize {
+        let inc = self.inc;
+        let mut best = (f64::INFINITY, 0);
+        for fi in 0..self.fits.len() {
+            let fit = self.fit(fi);
+            let e = fit.sq_error(inc, k);
+            if e < best.0 && fit.storable(inc, s, k) {
+                best = (e, fi);
+            }
+        }
+        best.1
+    }
+}
+
 /// Fits one incidence: the full model, or with a budget the smallest model (by bytes) that
 /// meets it. Returns the fit and whether the budget was met.
 pub fn fit_joint(
@@ -431,47 +523,22 @@ pub fn fit_joint(
 ) -> Result<(Fitted, bool), String> {
     let inc = prepare(ctx, s)?;
     let k = ctx.spectral.terms;
-    let levels: Vec<usize> = match opts.max_error {
-        Some(_) => (0..=opts.max_sh_level).collect(),
-        None => vec![opts.max_sh_level],
-    };
-    // Shapes are searched at two levels only, the lowest and the highest tried, and each level
-    // reuses the shape found at the nearer one: the best shape moves little with the SH level,
-    // and the search is most of the cost.
-    let (lo, hi) = (levels[0], levels[levels.len() - 1]);
-    let shapes: Vec<(LobeFamily, Vec<f64>, Vec<f64>)> = opts
-        .families
+    let mut lazy = Lazy::new(&inc, opts);
+    // Everything a measurement needs but the record, once per incidence: the samples, and the
+    // angles to the peak direction as records store it (f32).
+    let rho = DMatrix::from_row_slice(inc.n, ctx.synthesis.ncols(), &s.values);
+    let probe = stored_peak(&inc);
+    let stored_peak = dir_from_deg(probe.0 as f64, probe.1 as f64);
+    let alpha: Vec<f64> = inc
+        .dirs
         .iter()
-        .map(|&fam| {
-            let at_hi = search_shape(&inc, hi, fam);
-            let at_lo = if lo == hi {
-                at_hi.clone()
-            } else {
-                search_shape(&inc, lo.max(1).min(hi), fam)
-            };
-            (fam, at_lo, at_hi)
-        })
+        .map(|d| angle_between(*d, stored_peak))
         .collect();
-    let mut fits = Vec::new();
-    for &level in &levels {
-        fits.push(fit_level(&inc, level, None));
-        for (fam, at_lo, at_hi) in &shapes {
-            let shape = if level * 2 < lo + hi { at_lo } else { at_hi };
-            fits.push(fit_level(&inc, level, Some((*fam, shape.clone()))));
-        }
-    }
-    // A lobe narrower than the sampling can sit between the samples, where its column is ~0:
-    // least squares then gives it an amplitude beyond f32 (invisible at the samples, infinite
-    // between them). Such a fit cannot be stored and is not a candidate.
-    fits.retain(|f| f.storable(&inc, s, k));
-    if fits.is_empty() {
-        fits.push(fit_level(&inc, 0, None));
-    }
     let finish = |mut record: IncidentRecord, precision: Precision| {
         if precision == Precision::F16 {
             quantize_record_f16(&mut record);
         }
-        let (sq_error, sq_reference) = ctx.measure(&record, s);
+        let (sq_error, sq_reference) = ctx.measure_parts(&record, &inc.y, &inc.dirs, &alpha, &rho);
         record.rel_error = stored_error(rel(sq_error, sq_reference));
         Fitted {
             met: true,
@@ -485,13 +552,12 @@ pub fn fit_joint(
     let eps = opts.log_epsilon;
     match opts.max_error {
         None => {
-            // The best of the full-size fits (all terms, the given level and precision).
-            let best = fits
-                .iter()
-                .min_by(|a, b| a.sq_error(&inc, k).total_cmp(&b.sq_error(&inc, k)))
-                .expect("at least one fit");
-            let mut fitted = finish(best.record(&inc, s, k), opts.precision);
-            fitted.held_out = Some(best.held_out(&inc, s, k, eps));
+            // The best of the full-size fits (all terms, the given level and precision); ties
+            // to the first, as the eager search had it.
+            let best = lazy.most_accurate(s, k);
+            let fit = lazy.fit(best);
+            let mut fitted = finish(fit.record(&inc, s, k), opts.precision);
+            fitted.held_out = Some(fit.held_out(&inc, s, k, eps));
             Ok((fitted, true))
         }
         Some(budget) => {
@@ -500,11 +566,11 @@ pub fn fit_joint(
                 Precision::F32 => &[Precision::F32],
             };
             let mut candidates = Vec::new();
-            for (fi, f) in fits.iter().enumerate() {
+            for fi in 0..lazy.fits.len() {
+                let (level, family) = lazy.describe(fi);
                 for r in 1..=k {
                     for &prec in precisions {
-                        let bytes = record_bytes(r, f.level, f.lobe.as_ref().map(|l| l.0), prec);
-                        candidates.push((bytes, fi, r, prec));
+                        candidates.push((record_bytes(r, level, family, prec), fi, r, prec));
                     }
                 }
             }
@@ -515,12 +581,16 @@ pub fn fit_joint(
             for &(_, fi, r, prec) in &candidates {
                 // The prediction is exact before rounding to f32/f16: skip what cannot meet the
                 // budget, measure the rest as stored.
-                if fits[fi].sq_error(&inc, r) > limit * 1.0001 {
+                let fit = lazy.fit(fi);
+                if fit.sq_error(&inc, r) > limit * 1.0001 {
                     continue;
                 }
-                let mut fitted = finish(fits[fi].record(&inc, s, r), prec);
+                if !fit.storable(&inc, s, k) {
+                    continue;
+                }
+                let mut fitted = finish(fit.record(&inc, s, r), prec);
                 if fitted.sq_error <= limit {
-                    let ho = fits[fi].held_out(&inc, s, r, eps);
+                    let ho = lazy.fit(fi).held_out(&inc, s, r, eps);
                     fitted.held_out = Some(ho);
                     if !opts.held_out || ho.rel() <= HELD_OUT_SLACK * budget {
                         fitted.below_floor = ho.rel() > HELD_OUT_SLACK * budget;
@@ -532,24 +602,19 @@ pub fn fit_joint(
             // The most accurate model tried, for when no model meets the budget: it stands
             // unless it predicts held-out samples much worse than the best (it fits the
             // samples' scatter) or a smaller model already met the budget only at the samples.
-            let most = (0..fits.len())
-                .min_by(|&a, &b| {
-                    fits[a]
-                        .sq_error(&inc, k)
-                        .total_cmp(&fits[b].sq_error(&inc, k))
-                })
-                .expect("at least one fit");
-            let score = |fi: usize, r: usize| {
-                let ho = fits[fi].held_out(&inc, s, r, eps);
+            let most = lazy.most_accurate(s, k);
+            let score = |lazy: &mut Lazy, fi: usize, r: usize| {
+                let ho = lazy.fit(fi).held_out(&inc, s, r, eps);
                 ho.rel().powi(2) + ho.log().powi(2)
             };
             let overfits = opts.held_out && {
-                let best = candidates
-                    .iter()
-                    .filter(|c| c.3 == opts.precision)
-                    .map(|c| score(c.1, c.2))
-                    .fold(f64::INFINITY, f64::min);
-                score(most, k) > HELD_OUT_OVERFIT * best
+                let mut best = f64::INFINITY;
+                for c in candidates.iter().filter(|c| c.3 == opts.precision) {
+                    if lazy.fit(c.1).storable(&inc, s, k) {
+                        best = best.min(score(&mut lazy, c.1, c.2));
+                    }
+                }
+                score(&mut lazy, most, k) > HELD_OUT_OVERFIT * best
             };
             if opts.held_out && (fits_scatter || overfits) {
                 // No model meets the budget between the samples: the noise (or the sampling)
@@ -558,14 +623,12 @@ pub fn fit_joint(
                 // error stops improving, bytes stop being spent. Among those, a model whose
                 // stored values lose what the fit found (a huge amplitude on a lobe between the
                 // samples leaves the rest of an f16 record under its scale) is passed over.
-                let mut ranked: Vec<(f64, usize, usize, usize)> = candidates
-                    .iter()
-                    .filter(|c| c.3 == opts.precision)
-                    .map(|&(bytes, fi, r, _)| {
-                        let ho = fits[fi].held_out(&inc, s, r, eps);
-                        (ho.rel().powi(2) + ho.log().powi(2), bytes, fi, r)
-                    })
-                    .collect();
+                let mut ranked: Vec<(f64, usize, usize, usize)> = Vec::new();
+                for &(bytes, fi, r, prec) in &candidates {
+                    if prec == opts.precision && lazy.fit(fi).storable(&inc, s, k) {
+                        ranked.push((score(&mut lazy, fi, r), bytes, fi, r));
+                    }
+                }
                 let best = ranked.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
                 // Within the plateau by bytes, then the rest by score.
                 ranked.sort_by(|a, b| {
@@ -587,24 +650,33 @@ pub fn fit_joint(
                 // decoder would have to clamp); second pass: any.
                 for need_positive in [true, false] {
                     for &(_, _, fi, r) in &ranked {
-                        let mut fitted = finish(fits[fi].record(&inc, s, r), opts.precision);
-                        let predicted = fits[fi].sq_error(&inc, r);
+                        let fit = lazy.fit(fi);
+                        let mut fitted = finish(fit.record(&inc, s, r), opts.precision);
+                        let predicted = fit.sq_error(&inc, r);
                         if fitted.sq_error > 1.1 * predicted + 1e-12 * inc.total {
                             continue;
                         }
                         if need_positive && ctx.minimum_on_hemisphere(&fitted.record) < 0.0 {
                             continue;
                         }
-                        fitted.held_out = Some(fits[fi].held_out(&inc, s, r, eps));
+                        fitted.held_out = Some(lazy.fit(fi).held_out(&inc, s, r, eps));
                         fitted.below_floor = true;
                         return Ok((fitted, true));
                     }
                 }
             }
             // Nothing met the budget: the most accurate model tried, in f32.
-            let mut fitted = finish(fits[most].record(&inc, s, k), Precision::F32);
-            fitted.held_out = Some(fits[most].held_out(&inc, s, k, eps));
+            let fit = lazy.fit(most);
+            let mut fitted = finish(fit.record(&inc, s, k), Precision::F32);
+            fitted.held_out = Some(fit.held_out(&inc, s, k, eps));
             Ok((fitted, false))
         }
     }
+}
+
+/// The peak direction as every record of this incidence stores it, (θp, φp) in f32.
+fn stored_peak(inc: &Incidence) -> (f32, f32) {
+    let (tp, pp) = inc.peak;
+    let pp = if tp < 1e-9 { 0.0 } else { pp };
+    ((tp + 0.0) as f32, wrap_phi(pp as f32 as f64) as f32 % 360.0)
 }

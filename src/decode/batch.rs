@@ -1,0 +1,144 @@
+//! Many direction pairs per call: what a wavefront renderer, a vectorised language or a
+//! precomputation hands the decoder. Per batch, each requested wavelength's spectral basis
+//! values are computed once; per run of pairs with the same incident direction, the incident
+//! side of the query (records, weights, blended lobe shapes) is computed once. The values are
+//! exactly [`Decoder::eval`](crate::Decoder::eval)'s: the same operations in the same order.
+
+use super::evaluator::{Evaluator, Incident, LobeShape};
+use super::lattice::{unit, QueryFrame};
+
+/// Basis values kept for a batch: K·M of them at most (8 KiB on the stack).
+const BASIS_VALUES: usize = 1024;
+
+/// The incident side of the current run of pairs; None when ωi gives ρ = 0 (zero, not finite,
+/// below the horizon).
+type Cached = Option<(QueryFrame, Incident)>;
+
+/// `out[i·M..(i+1)·M]` = ρ(wi(i), wo(i), λ) for i < n, M = `wavelengths.len()`. The caller
+/// checked that `out` holds n·M values.
+pub(crate) fn eval_batch(
+    ev: &Evaluator,
+    wi: impl Fn(usize) -> [f32; 3],
+    wo: impl Fn(usize) -> [f32; 3],
+    n: usize,
+    wavelengths: &[f32],
+    out: &mut [f32],
+) {
+    let m = wavelengths.len();
+    if m == 0 || n == 0 {
+        return;
+    }
+    if ev.has_factor() {
+        // A factor model depends on each pair's own directions: nothing to share per run.
+        for (i, row) in out[..n * m].chunks_exact_mut(m).enumerate() {
+            ev.eval(wi(i), wo(i), wavelengths, row);
+        }
+        return;
+    }
+    let k = ev.res.spectrum.terms();
+    // B_k(λ_j) for every requested wavelength, node-major by wavelength; NaN marks a
+    // wavelength that is not finite (ρ = 0 there).
+    let mut basis = [0.0f64; BASIS_VALUES];
+    let tabulated = k * m <= BASIS_VALUES;
+    if tabulated {
+        for (j, &l) in wavelengths.iter().enumerate() {
+            let row = &mut basis[j * k..(j + 1) * k];
+            if (l as f64).is_finite() {
+                ev.res.spectrum.basis(l as f64, row);
+            } else {
+                row.fill(f64::NAN);
+            }
+        }
+    }
+    let basis = &basis[..if tabulated { k * m } else { 0 }];
+    let mut key: Option<[u32; 3]> = None;
+    let mut shapes = [LobeShape::default(); crate::model::material::MAX_LOBES];
+    let mut cached: Cached = None;
+    for (i, row) in out[..n * m].chunks_exact_mut(m).enumerate() {
+        let a = wi(i);
+        let bits = a.map(f32::to_bits);
+        if key != Some(bits) {
+            // A pair whose wi differs from the next one's is evaluated as `eval` would (keeping
+            // the incident side costs more than it saves); a run of equal wi keeps it.
+            if i + 1 >= n || wi(i + 1).map(f32::to_bits) != bits {
+                key = None;
+                single(ev, a, wo(i), basis, k, wavelengths, row);
+                continue;
+            }
+            key = Some(bits);
+            cached = unit(a).filter(|v| v[2] >= 0.0).map(|v| {
+                let q = ev.query_frame(v);
+                (q, ev.incident(q.theta, q.phi, Some(q.wi)))
+            });
+            if let Some((_, inc)) = &cached {
+                ev.shapes(inc, &mut shapes);
+            }
+        }
+        let Some((q, inc)) = &cached else {
+            row.fill(0.0);
+            continue;
+        };
+        let Some(b) = unit(wo(i)).filter(|v| v[2] >= 0.0) else {
+            row.fill(0.0);
+            continue;
+        };
+        let w = q.in_frame(b);
+        ev.with_coefficients(inc, Some(&shapes), w, |c| {
+            finish(ev, c, basis, k, wavelengths, row)
+        });
+    }
+}
+
+/// One pair on its own, as [`Evaluator::eval`] computes it, with the batch's basis values.
+#[inline(always)]
+fn single(
+    ev: &Evaluator,
+    a: [f32; 3],
+    b: [f32; 3],
+    basis: &[f64],
+    k: usize,
+    wavelengths: &[f32],
+    row: &mut [f32],
+) {
+    let (Some(a), Some(b)) = (unit(a), unit(b)) else {
+        row.fill(0.0);
+        return;
+    };
+    if a[2] < 0.0 || b[2] < 0.0 {
+        row.fill(0.0);
+        return;
+    }
+    let q = ev.query_frame(a);
+    let inc = ev.incident(q.theta, q.phi, Some(q.wi));
+    ev.outgoing(&inc, q.in_frame(b), |c| {
+        finish(ev, c, basis, k, wavelengths, row)
+    });
+}
+
+/// ρ(λ_j) = max(0, Σ_k c_k·B_k(λ_j)) from the batch's basis values (or, when there were too
+/// many to keep, as `eval` computes them).
+#[inline(always)]
+fn finish(
+    ev: &Evaluator,
+    c: &[f64],
+    basis: &[f64],
+    k: usize,
+    wavelengths: &[f32],
+    row: &mut [f32],
+) {
+    if basis.is_empty() {
+        ev.res.spectrum.eval_clamped(c, wavelengths, row);
+        return;
+    }
+    for (o, b) in row.iter_mut().zip(basis.chunks_exact(k)) {
+        if b[0].is_nan() {
+            *o = 0.0;
+            continue;
+        }
+        let mut sum = 0.0;
+        for (ck, bk) in c.iter().zip(b) {
+            sum += ck * bk;
+        }
+        *o = sum.max(0.0) as f32;
+    }
+}

@@ -1,0 +1,274 @@
+//! The decoder's resident form of a material: what an opened file keeps in memory. Renderers open
+//! thousands of materials, so the records live in a few flat arrays (no allocation per record
+//! or lobe) holding exactly the stored values (`f16` values times their scale are `f32` numbers),
+//! plus what evaluation would otherwise recompute per query: each record's unit peak vector, the
+//! logarithms of the lobe parameters that are blended geometrically, and a signature of its lobe
+//! kinds. The [`Material`] it came from can be rebuilt from it exactly
+//! ([`Resident::material`]), so the decoder need not keep both.
+
+use crate::model::angles::dir_from_deg;
+use crate::model::factor::FactorModel;
+use crate::model::material::HeldOutErrors;
+use crate::model::material::{DirectionSet, MAX_LOBES};
+use crate::model::material::{IncidentRecord, Lobe, LobeKind, Material, SamplePositions};
+use crate::model::sh::sh_count;
+use crate::model::spectral::{SpectralSpace, SpectrumEvaluator};
+use crate::model::Precision;
+
+/// One record: where its values are, its sizes, and the fields a [`Material`] needs back.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Rec {
+    /// The unit peak vector d(θp, φp).
+    pub peak: [f64; 3],
+    pub theta_i: f32,
+    pub phi_i: f32,
+    pub theta_p: f32,
+    pub phi_p: f32,
+    pub rel_error: f32,
+    pub critical_angle: f32,
+    /// Offset of its SH coefficients (terms × (level + 1)², term-major) in `vals`.
+    pub sh: u32,
+    /// Index of its first lobe in `lobes`.
+    pub lobe0: u32,
+    pub terms: u16,
+    pub level: u8,
+    pub nlobes: u8,
+    pub precision: Precision,
+    /// The lobe kinds' codes, 4 bits each, first lobe lowest: blended records whose signatures
+    /// are equal share every lobe position (`spec/EVALUATION.md`, "Lobes by position").
+    pub kinds: u32,
+}
+
+/// One lobe: its kind and where its amplitudes and parameters are.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LobeRec {
+    pub kind: LobeKind,
+    /// Offset of its amplitudes (variant-major, `terms` per variant) in `vals`.
+    pub amp: u32,
+    /// Offset of its parameters in `params` and of their logarithms in `ln_params`.
+    pub par: u32,
+}
+
+/// A material as the decoder holds it.
+#[derive(Debug, Clone)]
+pub(crate) struct Resident {
+    pub recs: Vec<Rec>,
+    pub lobes: Vec<LobeRec>,
+    /// SH coefficients and lobe amplitudes of every record, as stored (1/sr).
+    pub vals: Vec<f32>,
+    /// Lobe shape parameters as stored, and their natural logarithms (widths, exponents and
+    /// microfacet b, c are blended geometrically; a's logarithm is unused).
+    pub params: Vec<f32>,
+    pub ln_params: Vec<f64>,
+    pub spectrum: SpectrumEvaluator,
+    /// `HEAD`'s basis, K and interval (the table lives in `spectrum`).
+    pub spectral: SpectralSpace,
+    pub sh_level: usize,
+    pub isotropic: bool,
+    pub version_minor: u16,
+    pub wavelengths: Vec<f32>,
+    pub metadata: Option<Box<str>>,
+    pub sample_positions: Option<SamplePositions>,
+    /// The factor model shared by every incidence (`FACT`) and the held-out errors (`xval`),
+    /// as read.
+    pub factor: Option<FactorModel>,
+    pub held_out: Option<HeldOutErrors>,
+}
+
+impl Resident {
+    /// The resident form of a validated material.
+    pub fn new(m: &Material) -> Self {
+        let n_vals: usize = m
+            .records
+            .iter()
+            .map(|r| r.sh.len() + r.lobes.iter().map(|l| l.amplitude.len()).sum::<usize>())
+            .sum();
+        let n_lobes: usize = m.records.iter().map(|r| r.lobes.len()).sum();
+        let n_params: usize = m
+            .records
+            .iter()
+            .flat_map(|r| r.lobes.iter().map(|l| l.params.len()))
+            .sum();
+        let mut vals = Vec::with_capacity(n_vals);
+        let mut lobes = Vec::with_capacity(n_lobes);
+        let mut params = Vec::with_capacity(n_params);
+        let mut ln_params = Vec::with_capacity(n_params);
+        let mut recs = Vec::with_capacity(m.records.len());
+        for r in &m.records {
+            let sh = vals.len() as u32;
+            vals.extend_from_slice(&r.sh);
+            let lobe0 = lobes.len() as u32;
+            let mut kinds = 0u32;
+            for (li, l) in r.lobes.iter().enumerate().take(MAX_LOBES) {
+                kinds |= (l.kind.code() as u32) << (4 * li);
+                lobes.push(LobeRec {
+                    kind: l.kind,
+                    amp: vals.len() as u32,
+                    par: params.len() as u32,
+                });
+                vals.extend_from_slice(&l.amplitude);
+                params.extend_from_slice(&l.params);
+                ln_params.extend(l.params.iter().map(|&p| (p as f64).ln()));
+            }
+            recs.push(Rec {
+                peak: dir_from_deg(r.theta_p as f64, r.phi_p as f64),
+                theta_i: r.theta_i,
+                phi_i: r.phi_i,
+                theta_p: r.theta_p,
+                phi_p: r.phi_p,
+                rel_error: r.rel_error,
+                critical_angle: r.critical_angle,
+                sh,
+                lobe0,
+                terms: r.terms as u16,
+                level: r.sh_level as u8,
+                nlobes: r.lobes.len() as u8,
+                precision: r.precision,
+                kinds,
+            });
+        }
+        Resident {
+            recs,
+            lobes,
+            vals,
+            params,
+            ln_params,
+            spectrum: SpectrumEvaluator::new(&m.spectral),
+            spectral: SpectralSpace {
+                table: None,
+                ..m.spectral.clone()
+            },
+            sh_level: m.sh_level,
+            isotropic: m.isotropic,
+            version_minor: m.version_minor,
+            wavelengths: m.wavelengths.clone(),
+            metadata: m.metadata.as_deref().map(Box::from),
+            sample_positions: m.sample_positions.clone(),
+            factor: m.factor.clone(),
+            held_out: m.held_out.clone(),
+        }
+    }
+
+    /// Record r's SH coefficients of term k (P_r values).
+    #[inline]
+    pub fn sh_row(&self, r: &Rec, k: usize) -> &[f32] {
+        let p = sh_count(r.level as usize);
+        let at = r.sh as usize + k * p;
+        &self.vals[at..at + p]
+    }
+
+    /// Record r's lobe at position `li` (which it has).
+    #[inline]
+    pub fn lobe(&self, r: &Rec, li: usize) -> &LobeRec {
+        &self.lobes[r.lobe0 as usize + li]
+    }
+
+    /// A lobe's amplitudes of variant j, one per term of its record.
+    #[inline]
+    pub fn amplitudes(&self, r: &Rec, l: &LobeRec, j: usize) -> &[f32] {
+        let t = r.terms as usize;
+        let at = l.amp as usize + j * t;
+        &self.vals[at..at + t]
+    }
+
+    /// A lobe's parameters as stored.
+    #[inline]
+    pub fn params(&self, r: &Rec, l: &LobeRec) -> &[f32] {
+        let at = l.par as usize;
+        &self.params[at..at + l.kind.param_count(r.terms as usize)]
+    }
+
+    /// The material this form was made from, exactly.
+    pub fn material(&self) -> Material {
+        let records = self
+            .recs
+            .iter()
+            .map(|r| {
+                let t = r.terms as usize;
+                let p = sh_count(r.level as usize);
+                let lobes = (0..r.nlobes as usize)
+                    .map(|li| {
+                        let l = self.lobe(r, li);
+                        let na = l.kind.amplitude_count(t);
+                        Lobe {
+                            kind: l.kind,
+                            amplitude: self.vals[l.amp as usize..l.amp as usize + na].to_vec(),
+                            params: self.params(r, l).to_vec(),
+                        }
+                    })
+                    .collect();
+                IncidentRecord {
+                    terms: t,
+                    sh_level: r.level as usize,
+                    precision: r.precision,
+                    theta_i: r.theta_i,
+                    phi_i: r.phi_i,
+                    theta_p: r.theta_p,
+                    phi_p: r.phi_p,
+                    rel_error: r.rel_error,
+                    critical_angle: r.critical_angle,
+                    sh: self.vals[r.sh as usize..r.sh as usize + t * p].to_vec(),
+                    lobes,
+                }
+            })
+            .collect();
+        Material {
+            version_minor: self.version_minor,
+            spectral: SpectralSpace {
+                table: self.spectrum.table(),
+                ..self.spectral.clone()
+            },
+            sh_level: self.sh_level,
+            isotropic: self.isotropic,
+            wavelengths: self.wavelengths.clone(),
+            records,
+            metadata: self.metadata.as_deref().map(String::from),
+            sample_positions: self.sample_positions.clone(),
+            factor: self.factor.clone(),
+            held_out: self.held_out.clone(),
+        }
+    }
+
+    /// Bytes this form holds on the heap (capacities, not lengths).
+    pub fn heap_bytes(&self) -> usize {
+        use std::mem::size_of;
+        let samp = self.sample_positions.as_ref().map_or(0, |sp| {
+            sp.set_of_incidence.capacity() * 4
+                + sp.sets.capacity() * size_of::<DirectionSet>()
+                + sp.sets
+                    .iter()
+                    .map(|s| match s {
+                        DirectionSet::List(v) => v.capacity() * 8,
+                        DirectionSet::Grid { .. } => 0,
+                    })
+                    .sum::<usize>()
+        });
+        self.recs.capacity() * size_of::<Rec>()
+            + self.lobes.capacity() * size_of::<LobeRec>()
+            + self.vals.capacity() * 4
+            + self.params.capacity() * 4
+            + self.ln_params.capacity() * 8
+            + self.spectrum.heap_bytes()
+            + self.wavelengths.capacity() * 4
+            + self.metadata.as_ref().map_or(0, |m| m.len())
+            + samp
+            + self.factor.as_ref().map_or(0, factor_heap_bytes)
+            + self
+                .held_out
+                .as_ref()
+                .map_or(0, |h| 4 * (h.rel.capacity() + h.log.capacity()))
+    }
+}
+
+/// Heap bytes of a factor model's spectra and tables.
+fn factor_heap_bytes(f: &FactorModel) -> usize {
+    f.components
+        .iter()
+        .map(|c| {
+            4 * (c.spectrum.capacity()
+                + c.modulation.iter().map(Vec::capacity).sum::<usize>()
+                + c.tables.iter().flatten().map(Vec::capacity).sum::<usize>())
+                + c.features.capacity() * std::mem::size_of::<crate::model::factor::Feature>()
+        })
+        .sum()
+}

@@ -1,0 +1,172 @@
+//! The batch entry point and the decoder's resident form, on every golden file: `eval_batch`
+//! writes exactly (bit for bit) what `eval` writes pair by pair, with one incident or outgoing
+//! direction broadcast over the batch, runs of repeated incident directions, hostile vectors and
+//! wavelengths; the material a decoder rebuilds from its resident form is the one the reader
+//! returned, and writing it back gives the file's bytes.
+
+use sbrdf::{read_material, write_material, Decoder, Limits};
+use std::path::PathBuf;
+
+fn files() -> Vec<(PathBuf, Vec<u8>)> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("samples");
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir.join("golden"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "sbrdf"))
+        .collect();
+    paths.push(dir.join("ggx_slices.sbrdf"));
+    paths.sort();
+    let v: Vec<_> = paths
+        .into_iter()
+        .map(|p| {
+            let b = std::fs::read(&p).unwrap();
+            (p, b)
+        })
+        .collect();
+    assert!(v.len() >= 9, "only {} files", v.len());
+    v
+}
+
+/// Deterministic pseudo-random numbers in [-1, 1).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 23) as f32 - 1.0
+    }
+    fn dir(&mut self) -> [f32; 3] {
+        [self.next(), self.next(), self.next().abs() + 0.01]
+    }
+}
+
+fn pairs() -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let mut rng = Rng(0x1234_5678_9abc_def1);
+    let (mut wi, mut wo) = (Vec::new(), Vec::new());
+    for i in 0..400 {
+        // Runs of one incident direction, changing every 1 to 7 pairs.
+        let a = if i % 7 < 3 && i > 0 {
+            wi[i - 1]
+        } else {
+            rng.dir()
+        };
+        wi.push(a);
+        wo.push(rng.dir());
+    }
+    // Hostile and edge vectors on either side.
+    let odd = [
+        [0.0, 0.0, 0.0],
+        [f32::NAN, 0.0, 1.0],
+        [0.0, f32::INFINITY, 1.0],
+        [0.3, 0.2, -0.5],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, 1e-30],
+        [3.0, -4.0, 12.0],
+    ];
+    for (k, v) in odd.iter().enumerate() {
+        wi.push(*v);
+        wo.push(rng.dir());
+        wi.push(rng.dir());
+        wo.push(odd[(k + 3) % odd.len()]);
+    }
+    (wi, wo)
+}
+
+fn per_pair(dec: &Decoder, wi: &[[f32; 3]], wo: &[[f32; 3]], wl: &[f32]) -> Vec<f32> {
+    let n = wi.len().max(wo.len());
+    let mut out = vec![f32::NAN; n * wl.len()];
+    for i in 0..n {
+        let a = wi[if wi.len() == 1 { 0 } else { i }];
+        let b = wo[if wo.len() == 1 { 0 } else { i }];
+        dec.eval(a, b, wl, &mut out[i * wl.len()..(i + 1) * wl.len()]);
+    }
+    out
+}
+
+fn bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+#[test]
+fn a_batch_is_eval_pair_by_pair_bit_for_bit() {
+    let (wi, wo) = pairs();
+    for (path, bytes) in files() {
+        let dec = Decoder::from_bytes(&bytes).unwrap();
+        let w = dec.material().wavelengths.clone();
+        let (lo, hi) = (w[0], w[w.len() - 1]);
+        let lists: Vec<Vec<f32>> = vec![
+            vec![550.0],
+            vec![lo, 0.5 * (lo + hi), hi],
+            w.clone(),
+            vec![
+                lo - 50.0,
+                f32::NAN,
+                hi + 1.0,
+                f32::INFINITY,
+                0.37 * lo + 0.63 * hi,
+            ],
+            vec![],
+        ];
+        for wl in &lists {
+            for (a, b) in [
+                (&wi[..], &wo[..]),
+                (&wi[..1], &wo[..]),
+                (&wi[..], &wo[3..4]),
+                (&wi[..0], &wo[..0]),
+            ] {
+                let n = a.len().max(b.len());
+                let mut out = vec![f32::NAN; n * wl.len() + 3];
+                dec.eval_batch(a, b, wl, &mut out).unwrap();
+                let want = per_pair(&dec, a, b, wl);
+                assert_eq!(
+                    bits(&out[..n * wl.len()]),
+                    bits(&want),
+                    "{} with {} wavelengths",
+                    path.display(),
+                    wl.len()
+                );
+                // Nothing written past the rows.
+                assert!(out[n * wl.len()..].iter().all(|v| v.is_nan()));
+            }
+        }
+    }
+}
+
+#[test]
+fn a_batch_refuses_shapes_that_do_not_match() {
+    let (_, bytes) = &files()[0];
+    let dec = Decoder::from_bytes(bytes).unwrap();
+    let d = [[0.0f32, 0.0, 1.0]; 3];
+    let mut out = [7.0f32; 6];
+    assert!(dec
+        .eval_batch(&d[..2], &d[..3], &[500.0], &mut out)
+        .is_err());
+    assert!(dec
+        .eval_batch(&d[..3], &d[..3], &[500.0, 600.0], &mut out[..5])
+        .is_err());
+    assert_eq!(out, [7.0; 6], "nothing written on refusal");
+}
+
+#[test]
+fn the_resident_form_gives_back_the_material_and_the_bytes() {
+    for (path, bytes) in files() {
+        let read = read_material(&bytes, &Limits::default()).unwrap();
+        let dec = Decoder::from_bytes(&bytes).unwrap();
+        let before = dec.resident_bytes();
+        assert_eq!(dec.material(), &read, "{}", path.display());
+        assert!(
+            dec.resident_bytes() > before,
+            "the view is counted once built"
+        );
+        assert_eq!(
+            write_material(dec.material()).unwrap(),
+            bytes,
+            "{}: written back",
+            path.display()
+        );
+        assert_eq!(dec.clone().into_material(), read);
+        assert_eq!(Decoder::from_bytes(&bytes).unwrap().into_material(), read);
+    }
+}
