@@ -12,7 +12,6 @@ mod common;
 use common::*;
 use sbrdf::encode::encoder::{encode, EncodeOptions};
 use sbrdf::encode::samples::SampleSet;
-use sbrdf::model::spectral::SpectralBasis;
 
 struct Row {
     name: String,
@@ -24,21 +23,9 @@ fn measure(sets: &[SampleSet], opts: &EncodeOptions) -> (f64, f64, f64) {
     for set in sets {
         let mut o = opts.clone();
         if o.terms.is_some() {
-<<<<<<< HEAD
             // The paper's 13 terms, or as many as the periodic series supports on few
             // wavelengths (it takes λmin and λmax as one point: W − 1).
             o.terms = Some(13.min(set.wavelengths.len().saturating_sub(1)).max(1));
-=======
-            // The paper's 13 terms, or as many as the wavelengths carry: the periodic Fourier
-            // basis takes λmin and λmax as one point (W − 1 independent values).
-            let w = set.wavelengths.len();
-            let carried = if o.basis == SpectralBasis::PeriodicFourier {
-                w.saturating_sub(1).max(1)
-            } else {
-                w
-            };
-            o.terms = Some(13.min(carried));
->>>>>>> main
         }
         let e = encode(set, &o).expect("encode");
         bytes += sbrdf::write_material(&e.material).unwrap().len();
