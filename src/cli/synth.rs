@@ -19,9 +19,12 @@ pub enum SynthCommand {
 sbrdf synth phong --diffuse green --specular white --kd 1 --ks 15 --n 15 --incident 15,0 -o phong.csv")]
     Phong(PhongArgs),
     /// A GGX microfacet material: kd·Sd(λ)/π + D·G2·F/(4 cos θi cos θo), height-correlated
-    /// Smith G2, Schlick Fresnel with F0(λ) = 0.04 + 0.5·(the --fresnel patch).
-    #[command(after_help = "Example:\n  \
-sbrdf synth ggx --alpha 0.1 --diffuse blue --fresnel yellow --incident 0,0 --incident 45,0 -o ggx.csv")]
+    /// Smith G2, Schlick Fresnel with F0(λ) = 0.04 + 0.5·(the --fresnel patch). Isotropic with
+    /// --alpha, anisotropic (brushed metal) with --alpha-x, --alpha-y and --axis-angle.
+    #[command(after_help = "Examples:\n  \
+sbrdf synth ggx --alpha 0.1 --diffuse blue --fresnel yellow --incident 0,0 --incident 45,0 -o ggx.csv\n  \
+sbrdf synth ggx --alpha-x 0.08 --alpha-y 0.35 --axis-angle 30 --diffuse blue --fresnel yellow \\\n    \
+--incident 20,0 --incident 20,45 --incident 40,0 --incident 40,45 -o brushed.csv")]
     Ggx(GgxArgs),
     /// A MERL material from Löw et al.'s ABC fits, made spectral with a ColorChecker diffuse
     /// colour and a dispersive dielectric Fresnel (see the library's `synth::Abc`).
@@ -31,10 +34,25 @@ sbrdf synth abc --material pearl-paint --diffuse orange --incident 30,0 -o pearl
 }
 
 #[derive(Args)]
+#[command(group(clap::ArgGroup::new("roughness").required(true).args(["alpha", "alpha_x"])))]
 pub struct GgxArgs {
-    /// GGX roughness α.
-    #[arg(long)]
-    pub alpha: f64,
+    /// GGX roughness α (isotropic).
+    #[arg(long, conflicts_with_all = ["alpha_x", "alpha_y", "axis_angle"])]
+    pub alpha: Option<f64>,
+    /// Anisotropic GGX: roughness along the first surface axis.
+    #[arg(long, requires = "alpha_y")]
+    pub alpha_x: Option<f64>,
+    /// Anisotropic GGX: roughness along the second axis (perpendicular to the first).
+    #[arg(long, requires = "alpha_x")]
+    pub alpha_y: Option<f64>,
+    /// Anisotropic GGX: angle of the first axis from the tangent x towards y, degrees.
+    #[arg(
+        long,
+        requires = "alpha_x",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    pub axis_angle: f64,
     /// Diffuse ColorChecker patch.
     #[arg(long)]
     pub diffuse: String,
@@ -211,17 +229,60 @@ fn cmd_phong(a: PhongArgs) -> Result<()> {
 
 fn cmd_ggx(a: GgxArgs) -> Result<()> {
     let wl = parse_range(&a.grid.wavelengths)?;
-    check_nonnegative(&[("kd", a.kd), ("alpha", a.alpha)])?;
-    if a.alpha < 1e-3 || a.alpha > 1.0 {
-        return Err(Error::Parameter(format!(
-            "--alpha {} is outside [0.001, 1]",
-            a.alpha
-        )));
-    }
-    let ggx = Ggx::colorchecker(a.alpha, a.kd, &a.diffuse, &a.fresnel, &wl)?;
+    check_nonnegative(&[("kd", a.kd)])?;
+    let check_alpha = |name: &str, v: f64| {
+        if (1e-3..=1.0).contains(&v) {
+            Ok(v)
+        } else {
+            Err(Error::Parameter(format!(
+                "--{name} {v} is outside [0.001, 1]"
+            )))
+        }
+    };
+    let (ggx, roughness) = match (a.alpha, a.alpha_x, a.alpha_y) {
+        (Some(alpha), _, _) => (
+            Ggx::colorchecker(
+                check_alpha("alpha", alpha)?,
+                a.kd,
+                &a.diffuse,
+                &a.fresnel,
+                &wl,
+            )?,
+            format!("--alpha {alpha}"),
+        ),
+        (None, Some(ax), Some(ay)) => {
+            if !a.axis_angle.is_finite() {
+                return Err(Error::Parameter(format!(
+                    "--axis-angle {} is not a finite angle",
+                    a.axis_angle
+                )));
+            }
+            let ggx = Ggx::colorchecker(
+                check_alpha("alpha-x", ax)?,
+                a.kd,
+                &a.diffuse,
+                &a.fresnel,
+                &wl,
+            )?
+            .with_anisotropy(check_alpha("alpha-y", ay)?, a.axis_angle);
+            (
+                ggx,
+                format!(
+                    "--alpha-x {ax} --alpha-y {ay} --axis-angle {}",
+                    a.axis_angle
+                ),
+            )
+        }
+        // clap's group requires --alpha or --alpha-x, and --alpha-x requires --alpha-y.
+        _ => {
+            return Err(Error::Parameter(
+                "give --alpha, or --alpha-x with --alpha-y".into(),
+            ))
+        }
+    };
     let note = format!(
-        "sbrdf synth ggx --alpha {} --diffuse {:?} --fresnel {:?} --kd {}",
-        a.alpha, a.diffuse, a.fresnel, a.kd
+        "sbrdf synth ggx {roughness} --diffuse {:?} --fresnel {:?} --kd {}",
+        a.diffuse, a.fresnel, a.kd
     );
     write_synth(&a.grid, &note, |i, o, w| ggx.value(i, o, w))
 }

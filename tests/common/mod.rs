@@ -111,12 +111,16 @@ pub fn beckmann(alpha: f64) -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
 pub fn two_layer() -> impl Fn((f64, f64), (f64, f64), usize) -> f64 {
     let coat = sbrdf::io::synth::Ggx {
         alpha: 0.05,
+        alpha_y: 0.05,
+        axis_deg: 0.0,
         kd: 0.0,
         diffuse: vec![0.0; 31],
         f0: vec![0.04; 31],
     };
     let metal = sbrdf::io::synth::Ggx {
         alpha: 0.4,
+        alpha_y: 0.4,
+        axis_deg: 0.0,
         kd: 0.0,
         diffuse: vec![0.0; 31],
         f0: colorchecker("orange yellow"),
