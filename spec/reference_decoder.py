@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""Independent reference reader and decoder of the .sbrdf format, version 1.1.
+"""Independent reference reader and decoder of the .sbrdf format, version 1.2.
 
 Version 1.1 adds to version 1.0 the wavelength range (HEAD flag bit 1, §3.1), the critical `FACT`
 chunk (the factor model, §3.7, EVALUATION.md "Factor model") and the ancillary `xval` chunk
-(held-out errors, §3.8); files without them (every 1.0 file) are read and evaluated exactly as
-before.
+(held-out errors, §3.8); version 1.2 adds lobe kind 5, the anisotropic microfacet lobe
+(EVALUATION.md "Lobes", its blending in "Lobes by position"). Files without them (every 1.0
+file) are read and evaluated exactly as before.
 
 Written from spec/FORMAT.md and spec/EVALUATION.md alone, without looking at the Rust
 implementation, to show that those two documents are enough to decode a file. Standard library
@@ -184,6 +185,47 @@ def microfacet_variants(kind, b, c, a, wi, w):
     return (dist * vs, dist * vs * f, dist * vc, dist * vc * f)
 
 
+def microfacet_aniso_variants(params, wi, w):
+    """The four variants of kind 5 ("Lobes", version 1.2)."""
+    bx, by, c, ax, ay, psi = params
+    s = (wi[0] + w[0], wi[1] + w[1], wi[2] + w[2])
+    if s == (0.0, 0.0, 0.0):
+        return (0.0, 0.0, 0.0, 0.0)
+    n = math.sqrt(dot(s, s))
+    h = (s[0] / n, s[1] / n, s[2] / n)
+    ch = min(max(h[2], 0.0), 1.0)
+    cd = min(max(dot(wi, h), 1e-6), 1.0)
+    ci = max(wi[2], 1e-6)
+    co = max(w[2], 1e-6)
+    cp, sp = math.cos(math.radians(psi)), math.sin(math.radians(psi))
+
+    def along(x):
+        return (x[0] * cp + x[1] * sp, x[1] * cp - x[0] * sp)
+
+    hu, hv = along(h)
+    iu, iv = along(wi)
+    ou, ov = along(w)
+    dist = (1.0 + bx * hu * hu + by * hv * hv) ** (-c)
+    vs = 1.0 / (co * math.sqrt(ci * ci + ax * ax * iu * iu + ay * ay * iv * iv)
+                + ci * math.sqrt(co * co + ax * ax * ou * ou + ay * ay * ov * ov))
+    vc = min(1.0 / (ci * co), 2 * ch / (cd * ci), 2 * ch / (cd * co))
+    f = (1.0 - cd) ** 5
+    return (dist * vs, dist * vs * f, dist * vc, dist * vc * f)
+
+
+def mean_axis(pairs):
+    """ψ blended as an axis ("Lobes by position"): pairs of (weight, ψ in degrees); None when
+    the doubled angles' mean vanishes."""
+    x = sum(wgt * math.cos(math.radians(2 * psi)) for wgt, psi in pairs)
+    y = sum(wgt * math.sin(math.radians(2 * psi)) for wgt, psi in pairs)
+    if x == 0.0 and y == 0.0:
+        return None
+    psi = 0.5 * math.degrees(math.atan2(y, x))
+    if psi < 0:
+        psi += 180.0
+    return 0.0 if psi >= 180.0 else psi
+
+
 def lobe_add(coef, lobe, peak, wi, w):
     """Add ℓ(k, w) of one lobe to coef[k]; lobe = (kind, amps, params), amps[j][k]."""
     kind, amps, params = lobe
@@ -200,7 +242,10 @@ def lobe_add(coef, lobe, peak, wi, w):
             for k, p in enumerate(amps[0]):
                 coef[k] += p * f
     else:
-        var = microfacet_variants(kind, params[0], params[1], params[2], wi, w)
+        if kind == 5:
+            var = microfacet_aniso_variants(params, wi, w)
+        else:
+            var = microfacet_variants(kind, params[0], params[1], params[2], wi, w)
         for j in range(4):
             for k, q in enumerate(amps[j]):
                 coef[k] += q * var[j]
@@ -502,12 +547,12 @@ class SbrdfFile:
             kind, res1, length = r.take("BBH", "lobe header")
             if length > r.left():
                 raise malformed("%s: lobe %d length runs past the record (§3.3)" % (where, li))
-            if kind not in (1, 2, 3, 4):
+            if kind not in (1, 2, 3, 4, 5):
                 raise unsupported("%s: unknown lobe kind %d (§4)" % (where, kind))
             if res1:
                 raise malformed("%s: lobe %d reserved byte not 0 (§3.3)" % (where, li))
             n_amp, n_par = {1: (terms, terms), 2: (4 * terms, 3), 3: (4 * terms, 3),
-                            4: (terms, 1)}[kind]
+                            4: (terms, 1), 5: (4 * terms, 6)}[kind]
             if length != n_amp * s + 4 * n_par:
                 raise malformed("%s: lobe %d of kind %d has length %d, not %d (§3.3)"
                                 % (where, li, kind, length, n_amp * s + 4 * n_par))
@@ -516,6 +561,11 @@ class SbrdfFile:
             if kind in (2, 3):
                 b, c, a = params
                 ok = all(math.isfinite(v) for v in params) and b > 0 and c > 0 and 0 <= a <= 1
+            elif kind == 5:
+                bx, by, c, ax, ay, psi = params
+                ok = (all(math.isfinite(v) for v in params) and bx > 0 and by > 0 and c > 0
+                      and 0 <= ax <= 1 and 0 <= ay <= 1 and 0 <= psi < 180
+                      and not is_neg_zero(psi))
             else:
                 ok = all(math.isfinite(v) and v > 0 for v in params)
             if not ok:
@@ -837,6 +887,14 @@ class SbrdfFile:
                                        / sum(wgt for _, wgt in have)))
         elif kind == 4:
             params = [math.exp(sum(wgt * math.log(r.lobes[li][2][0]) for r, wgt in recs))]
+        elif kind == 5:
+            geo = [math.exp(sum(wgt * math.log(r.lobes[li][2][i]) for r, wgt in recs))
+                   for i in range(3)]
+            lin = [sum(wgt * r.lobes[li][2][i] for r, wgt in recs) for i in (3, 4)]
+            psi = mean_axis([(wgt, r.lobes[li][2][5]) for r, wgt in recs])
+            if psi is None:
+                psi = recs[0][0].lobes[li][2][5]
+            params = [to_f32(v) for v in geo + lin + [psi]]
         else:
             b = math.exp(sum(wgt * math.log(r.lobes[li][2][0]) for r, wgt in recs))
             c = math.exp(sum(wgt * math.log(r.lobes[li][2][1]) for r, wgt in recs))

@@ -46,9 +46,10 @@ type FactorTerms = [f64; MAX_COMPONENTS * MAX_RANK];
 pub(crate) struct LobeShape {
     /// The peak direction (kinds 1 and 4).
     pub peak: [f64; 3],
-    /// Kind 4: [n, –, –]; kinds 2 and 3: [b, c, a] rounded to f32 (`spec/EVALUATION.md`,
-    /// "Lobes by position"); kind 1 blends its widths per term at evaluation.
-    pub p: [f64; 3],
+    /// Kind 4: [n, –, …]; kinds 2 and 3: [b, c, a, –, …]; kind 5: [bx, by, c, ax, ay, ψ];
+    /// rounded to f32 (`spec/EVALUATION.md`, "Lobes by position"); kind 1 blends its widths per
+    /// term at evaluation.
+    pub p: [f64; 6],
 }
 
 /// The incident side of a query: everything that does not depend on ωo.
@@ -362,12 +363,50 @@ impl Evaluator {
         match l0.kind {
             LobeKind::AngleGaussian => LobeShape {
                 peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
-                p: [0.0; 3],
+                p: [0.0; 6],
             },
             LobeKind::CosinePower => LobeShape {
                 peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
-                p: [geo(0), 0.0, 0.0],
+                p: [geo(0), 0.0, 0.0, 0.0, 0.0, 0.0],
             },
+            LobeKind::MicrofacetAniso => {
+                let stored = |r: usize, i: usize| {
+                    res.params[res.lobe(&res.recs[r], li).par as usize + i] as f64
+                };
+                let lin = |i: usize| -> f64 {
+                    if single {
+                        return stored(recs[0], i);
+                    }
+                    let (mut wa, mut wsum) = (0.0, 0.0);
+                    for (&r, &w) in recs.iter().zip(ws) {
+                        wa += w * stored(r, i);
+                        wsum += w;
+                    }
+                    wa / wsum
+                };
+                // An axis, not a direction (ψ and ψ + 180° are one axis): the doubled angles
+                // averaged; opposite axes with equal weights keep the first record's.
+                let psi = if single {
+                    stored(recs[0], 5)
+                } else {
+                    crate::model::angles::mean_axis_deg(
+                        recs.iter().zip(ws).map(|(&r, &w)| (w, stored(r, 5))),
+                    )
+                    .unwrap_or_else(|| stored(recs[0], 5))
+                };
+                let r32 = |v: f64| v as f32 as f64;
+                LobeShape {
+                    peak: [0.0; 3],
+                    p: [
+                        r32(geo(0)),
+                        r32(geo(1)),
+                        r32(geo(2)),
+                        r32(lin(3)),
+                        r32(lin(4)),
+                        r32(psi),
+                    ],
+                }
+            }
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
                 let a = if single {
                     res.params[l0.par as usize + 2] as f64
@@ -381,7 +420,14 @@ impl Evaluator {
                 };
                 LobeShape {
                     peak: [0.0; 3],
-                    p: [geo(0) as f32 as f64, geo(1) as f32 as f64, a as f32 as f64],
+                    p: [
+                        geo(0) as f32 as f64,
+                        geo(1) as f32 as f64,
+                        a as f32 as f64,
+                        0.0,
+                        0.0,
+                        0.0,
+                    ],
                 }
             }
         }
@@ -526,10 +572,10 @@ impl Evaluator {
                     let stored = res.params(rec, l);
                     let mut shape = LobeShape {
                         peak: rec.peak,
-                        p: [stored[0] as f64, 0.0, 0.0],
+                        p: [0.0; 6],
                     };
-                    if l.kind != LobeKind::CosinePower {
-                        shape.p = [stored[0] as f64, stored[1] as f64, stored[2] as f64];
+                    for (p, &v) in shape.p.iter_mut().zip(stored) {
+                        *p = v as f64;
                     }
                     let (v, nv) = self.values(l.kind, &shape, inc.wi, wo, &mut geometry);
                     self.add_amplitudes(c, &[r], &[w], li, &v[..nv]);
@@ -564,8 +610,20 @@ impl Evaluator {
             }
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
                 match *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo)) {
-                    Some(g) => (g.variants_f64(shape.p, kind == LobeKind::MicrofacetSin2), 4),
+                    Some(g) => (
+                        g.variants_f64(
+                            [shape.p[0], shape.p[1], shape.p[2]],
+                            kind == LobeKind::MicrofacetSin2,
+                        ),
+                        4,
+                    ),
                     None => ([0.0; 4], 4), // wi = −wo: every variant is 0
+                }
+            }
+            LobeKind::MicrofacetAniso => {
+                match *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo)) {
+                    Some(g) => (g.variants_aniso(shape.p, wi, wo), 4),
+                    None => ([0.0; 4], 4),
                 }
             }
             LobeKind::AngleGaussian => unreachable!("Gaussian lobes have per-term values"),

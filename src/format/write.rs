@@ -68,7 +68,14 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     // are evenly spaced; a factor model (FACT) is a 1.1 feature whatever the material asks. A
     // file without 1.1 features is written as 1.0, byte for byte.
     let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
-    let minor: u16 = if range || m.factor.is_some() {
+    // An anisotropic lobe (kind 5) is a 1.2 feature, whatever the material asks, as FACT is 1.1.
+    let aniso = m
+        .records
+        .iter()
+        .any(|r| r.lobes.iter().any(|l| l.kind == LobeKind::MicrofacetAniso));
+    let minor: u16 = if aniso {
+        VERSION_MINOR_ANISO
+    } else if range || m.factor.is_some() {
         VERSION_MINOR_FACTOR
     } else {
         0

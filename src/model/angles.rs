@@ -75,6 +75,26 @@ pub fn normalize(v: [f64; 3]) -> Option<[f64; 3]> {
     }
 }
 
+/// The weighted mean of axes given as angles in degrees (an axis at ψ is the axis at ψ + 180°):
+/// the doubled angles' unit vectors averaged, halved back into [0, 180). `None` when the mean
+/// vector vanishes (e.g. two perpendicular axes with equal weights) or is not finite.
+/// Normative: `spec/EVALUATION.md`, "Lobes by position".
+pub fn mean_axis_deg(axes: impl IntoIterator<Item = (f64, f64)>) -> Option<f64> {
+    let (mut x, mut y) = (0.0f64, 0.0f64);
+    for (w, psi) in axes {
+        let (s, c) = (2.0 * psi).to_radians().sin_cos();
+        x += w * c;
+        y += w * s;
+    }
+    if !(x.is_finite() && y.is_finite()) || (x == 0.0 && y == 0.0) {
+        return None;
+    }
+    let half = 0.5 * y.atan2(x).to_degrees();
+    let psi = if half < 0.0 { half + 180.0 } else { half };
+    // Rounding may land on 180 itself, which is the axis at 0.
+    Some(if psi >= 180.0 { 0.0 } else { psi + 0.0 })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -114,5 +134,20 @@ mod tests {
         let b = dir_from_deg(30.0 + 1e-6, 0.0);
         let got = angle_between(a, b).to_degrees();
         assert!((got - 1e-6).abs() < 1e-12, "{got}");
+    }
+
+    #[test]
+    fn axes_average_across_the_wrap() {
+        // 179° and 1° are 2° apart: their mean is the axis at 0°, not at 90°.
+        let m = mean_axis_deg([(0.5, 179.0), (0.5, 1.0)]).unwrap();
+        assert!(m.min(180.0 - m) < 1e-9, "{m}");
+        let m = mean_axis_deg([(0.75, 170.0), (0.25, 10.0)]).unwrap();
+        assert!((m - 175.0).abs() < 0.05, "{m}");
+        // An axis turned by 180° is the same axis.
+        let m = mean_axis_deg([(0.5, 30.0), (0.5, 210.0)]).unwrap();
+        assert!((m - 30.0).abs() < 1e-9, "{m}");
+        assert!(mean_axis_deg([(0.5, 0.0), (0.5, 90.0)]).is_none());
+        let m = mean_axis_deg([(1.0, 42.0)]).unwrap();
+        assert!((m - 42.0).abs() < 1e-12);
     }
 }

@@ -43,6 +43,9 @@ pub struct MicrofacetGeometry {
     /// V-cavity visibility and the Schlick factor (1 − cd)⁵.
     vc: f64,
     f: f64,
+    /// The half vector's tangential components, for the anisotropic kind.
+    hx: f64,
+    hy: f64,
 }
 
 impl MicrofacetGeometry {
@@ -73,6 +76,8 @@ impl MicrofacetGeometry {
             co,
             vc,
             f: g2 * g2 * g,
+            hx: h[0],
+            hy: h[1],
         })
     }
 
@@ -94,6 +99,64 @@ impl MicrofacetGeometry {
         let vs = 1.0
             / (co * (a2 + (1.0 - a2) * ci * ci).sqrt() + ci * (a2 + (1.0 - a2) * co * co).sqrt());
         [d * vs, d * vs * self.f, d * self.vc, d * self.vc * self.f]
+    }
+
+    /// The four variants of the anisotropic kind for parameters `[bx, by, c, ax, ay, ψ]` (ψ in
+    /// degrees) at the directions `wi`, `wo` this geometry was made from: D = (1 + bx·hu² +
+    /// by·hv²)^(−c) and Vs = 1/(co·√(ci² + ax²·ui² + ay²·vi²) + ci·√(co² + ax²·uo² + ay²·vo²)),
+    /// where xu, xv are the components of x along u = (cos ψ, sin ψ, 0) and v = (−sin ψ, cos ψ,
+    /// 0); Vc and F as for the isotropic kinds.
+    #[inline(always)]
+    pub fn variants_aniso(&self, params: [f64; 6], wi: [f64; 3], wo: [f64; 3]) -> [f64; 4] {
+        let axis = params[5].to_radians().sin_cos();
+        self.variants_aniso_with_axis(params, axis, wi, wo)
+    }
+
+    /// [`MicrofacetGeometry::variants_aniso`] with (sin ψ, cos ψ) given, for callers that
+    /// evaluate one lobe at many directions.
+    #[inline(always)]
+    pub fn variants_aniso_with_axis(
+        &self,
+        params: [f64; 6],
+        (s, k): (f64, f64),
+        wi: [f64; 3],
+        wo: [f64; 3],
+    ) -> [f64; 4] {
+        let [bx, by, c, ax, ay, _] = params;
+        let along = |x: f64, y: f64| (x * k + y * s, y * k - x * s);
+        let (hu, hv) = along(self.hx, self.hy);
+        let d = (-c * (1.0 + bx * hu * hu + by * hv * hv).ln()).exp();
+        let (ci, co) = (self.ci, self.co);
+        let (ax2, ay2) = (ax * ax, ay * ay);
+        let (iu, iv) = along(wi[0], wi[1]);
+        let (ou, ov) = along(wo[0], wo[1]);
+        let vs = 1.0
+            / (co * (ci * ci + ax2 * iu * iu + ay2 * iv * iv).sqrt()
+                + ci * (co * co + ax2 * ou * ou + ay2 * ov * ov).sqrt());
+        [d * vs, d * vs * self.f, d * self.vc, d * self.vc * self.f]
+    }
+}
+
+/// [`MicrofacetGeometry::variants_aniso`] from scratch, for parameters as stored.
+pub fn microfacet_aniso_variants(params: &[f32], wi: [f64; 3], wo: [f64; 3]) -> [f64; 4] {
+    match MicrofacetGeometry::new(wi, wo) {
+        Some(g) => g.variants_aniso([0, 1, 2, 3, 4, 5].map(|i| params[i] as f64), wi, wo),
+        None => [0.0; 4],
+    }
+}
+
+/// The variants of any microfacet kind (2, 3 or 5) for its parameters as stored.
+pub fn microfacet_kind_variants(
+    kind: crate::model::material::LobeKind,
+    params: &[f32],
+    wi: [f64; 3],
+    wo: [f64; 3],
+) -> [f64; 4] {
+    use crate::model::material::LobeKind;
+    match kind {
+        LobeKind::MicrofacetAniso => microfacet_aniso_variants(params, wi, wo),
+        LobeKind::MicrofacetSin2 => microfacet_variants_with(params, wi, wo, true),
+        _ => microfacet_variants_with(params, wi, wo, false),
     }
 }
 
@@ -118,6 +181,78 @@ mod tests {
                     "{params:?} {ti} {to} {po}: {v:?}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn the_anisotropic_kind_with_equal_axes_is_the_sin2_kind_and_turns_with_its_axis() {
+        for (ti, pi, to, po) in [
+            (0.0, 0.0, 20.0, 30.0),
+            (40.0, 10.0, 35.0, 200.0),
+            (70.0, 300.0, 89.0, 100.0),
+            (89.0, 45.0, 5.0, 225.0),
+        ] {
+            let (wi, wo) = (dir_from_deg(ti, pi), dir_from_deg(to, po));
+            let iso = microfacet_variants_with(&[30.0, 2.0, 0.3], wi, wo, true);
+            let aniso = microfacet_aniso_variants(&[30.0, 30.0, 2.0, 0.3, 0.3, 77.0], wi, wo);
+            for j in 0..4 {
+                assert!(
+                    (iso[j] - aniso[j]).abs() <= 1e-12 * iso[j].max(1e-300),
+                    "{iso:?} {aniso:?}"
+                );
+            }
+            // Swapping the axes' parameters is turning the axis by 90°.
+            let a = microfacet_aniso_variants(&[300.0, 5.0, 1.5, 0.1, 0.6, 20.0], wi, wo);
+            let b = microfacet_aniso_variants(&[5.0, 300.0, 1.5, 0.6, 0.1, 110.0], wi, wo);
+            for j in 0..4 {
+                assert!(
+                    (a[j] - b[j]).abs() <= 1e-12 * a[j].max(1e-300),
+                    "{a:?} {b:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_anisotropic_kind_holds_anisotropic_ggx() {
+        // D·Vs with bx = 1/αx² − 1, by = 1/αy² − 1, c = 2, ax = αx, ay = αy is GGX's D·G2/(4 ci
+        // co) times 2π·αx·αy: D_GGX = 1/(π αx αy t²) with t = 1 + bx hu² + by hv² (hz² = 1 −
+        // hu² − hv²), and G2/(4 ci co) = Vs/2.
+        let (ax, ay, psi) = (0.08f64, 0.35f64, 30.0f64);
+        // Heitz 2014, eq. 80 and 86, written out in the frame (u, v, z).
+        let (s, k) = psi.to_radians().sin_cos();
+        let along = |w: [f64; 3]| (w[0] * k + w[1] * s, w[1] * k - w[0] * s);
+        let ggx = |wi: [f64; 3], wo: [f64; 3]| {
+            let h = crate::model::angles::normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]])
+                .unwrap();
+            let (hu, hv) = along(h);
+            let t = hu * hu / (ax * ax) + hv * hv / (ay * ay) + h[2] * h[2];
+            let d = 1.0 / (std::f64::consts::PI * ax * ay * t * t);
+            let lambda = |w: [f64; 3]| {
+                let (wu, wv) = along(w);
+                0.5 * (-1.0
+                    + (1.0 + (ax * ax * wu * wu + ay * ay * wv * wv) / (w[2] * w[2])).sqrt())
+            };
+            d / (1.0 + lambda(wi) + lambda(wo)) / (4.0 * wi[2] * wo[2])
+        };
+        let params = [
+            (1.0 / (ax * ax) - 1.0) as f32,
+            (1.0 / (ay * ay) - 1.0) as f32,
+            2.0,
+            ax as f32,
+            ay as f32,
+            psi as f32,
+        ];
+        let k = 2.0 * std::f64::consts::PI * ax * ay;
+        for (ti, pi, to, po) in [
+            (30.0, 0.0, 30.0, 180.0),
+            (50.0, 70.0, 40.0, 230.0),
+            (10.0, 0.0, 60.0, 90.0),
+        ] {
+            let (wi, wo) = (dir_from_deg(ti, pi), dir_from_deg(to, po));
+            let want = ggx(wi, wo);
+            let got = microfacet_aniso_variants(&params, wi, wo)[0] / k;
+            assert!((got - want).abs() <= 1e-5 * want, "{got} vs {want}");
         }
     }
 

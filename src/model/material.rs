@@ -39,6 +39,13 @@ pub enum LobeKind {
     /// Phong's lobe about the record's peak direction: term k adds p_k·max(0, cos α)ⁿ, one
     /// exponent n > 0 for all terms. Amplitudes: p_k (one per term); parameters: n.
     CosinePower,
+    /// The anisotropic counterpart of [`LobeKind::MicrofacetSin2`] (brushed metals, satin):
+    /// D = (1 + bx·hu² + by·hv²)^(−c) with hu, hv the half vector's components along the surface
+    /// axes u = (cos ψ, sin ψ, 0) and v = (−sin ψ, cos ψ, 0), which holds anisotropic GGX
+    /// exactly (bx = 1/αx² − 1, by = 1/αy² − 1, c = 2); the Smith-like factor takes the
+    /// projected roughness √(ax²·ωu² + ay²·ωv²) of each direction. Amplitudes: 4 × terms, as
+    /// kind 3; parameters: bx, by, c, ax, ay, ψ (degrees, [0, 180)).
+    MicrofacetAniso,
 }
 
 impl LobeKind {
@@ -48,6 +55,7 @@ impl LobeKind {
             LobeKind::Microfacet => 2,
             LobeKind::MicrofacetSin2 => 3,
             LobeKind::CosinePower => 4,
+            LobeKind::MicrofacetAniso => 5,
         }
     }
     pub fn from_code(c: u8) -> Option<Self> {
@@ -56,6 +64,7 @@ impl LobeKind {
             2 => Some(LobeKind::Microfacet),
             3 => Some(LobeKind::MicrofacetSin2),
             4 => Some(LobeKind::CosinePower),
+            5 => Some(LobeKind::MicrofacetAniso),
             _ => None,
         }
     }
@@ -65,13 +74,16 @@ impl LobeKind {
             LobeKind::Microfacet => "microfacet",
             LobeKind::MicrofacetSin2 => "microfacet-sin2",
             LobeKind::CosinePower => "cosine-power",
+            LobeKind::MicrofacetAniso => "microfacet-aniso",
         }
     }
     /// Number of stored amplitudes for a record of `terms` spectral terms.
     pub fn amplitude_count(self, terms: usize) -> usize {
         match self {
             LobeKind::AngleGaussian | LobeKind::CosinePower => terms,
-            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => 4 * terms,
+            LobeKind::Microfacet | LobeKind::MicrofacetSin2 | LobeKind::MicrofacetAniso => {
+                4 * terms
+            }
         }
     }
     /// Number of f32 shape parameters.
@@ -80,7 +92,16 @@ impl LobeKind {
             LobeKind::AngleGaussian => terms,
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => 3,
             LobeKind::CosinePower => 1,
+            LobeKind::MicrofacetAniso => 6,
         }
+    }
+
+    /// True for the kinds evaluated in the half vector with four shadowing/Fresnel variants.
+    pub fn is_microfacet(self) -> bool {
+        matches!(
+            self,
+            LobeKind::Microfacet | LobeKind::MicrofacetSin2 | LobeKind::MicrofacetAniso
+        )
     }
     /// Checks the shape parameters; the message says which is wrong.
     pub fn check_params(self, params: &[f32]) -> Result<(), String> {
@@ -104,6 +125,27 @@ impl LobeKind {
                 }
                 if !(a.is_finite() && (0.0..=1.0).contains(&a)) {
                     return Err(format!("microfacet lobe a = {a} is outside [0, 1]"));
+                }
+            }
+            LobeKind::MicrofacetAniso => {
+                let [bx, by, c, ax, ay, psi] = [0, 1, 2, 3, 4, 5].map(|i| params[i]);
+                if ![bx, by, c].iter().all(|v| v.is_finite() && *v > 0.0) {
+                    return Err(format!(
+                        "anisotropic microfacet lobe bx = {bx}, by = {by}, c = {c}: all must be > 0"
+                    ));
+                }
+                if ![ax, ay]
+                    .iter()
+                    .all(|v| v.is_finite() && (0.0..=1.0).contains(v))
+                {
+                    return Err(format!(
+                        "anisotropic microfacet lobe ax = {ax}, ay = {ay}: both must be in [0, 1]"
+                    ));
+                }
+                if !(psi.is_finite() && (0.0..180.0).contains(&psi)) || psi.is_sign_negative() {
+                    return Err(format!(
+                        "anisotropic microfacet lobe axis angle ψ = {psi} is outside [0, 180)"
+                    ));
                 }
             }
         }

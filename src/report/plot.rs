@@ -7,7 +7,7 @@ use crate::encode::fit::spectral_projection;
 use crate::encode::samples::{IncidentSamples, SampleSet};
 use crate::error::{Error, Result};
 use crate::model::angles::{angle_between, dir_from_deg, dot, wrap_phi};
-use crate::model::lobes::microfacet_variants_with;
+use crate::model::lobes::microfacet_kind_variants;
 use crate::model::material::{IncidentRecord, LobeKind, Material};
 use crate::model::sh::{sh_count, ShBasis};
 use crate::model::spectral::{SpectralBasis, SpectralSpace};
@@ -321,9 +321,8 @@ pub fn lobes_value(rec: &IncidentRecord, k: usize, wi: [f64; 3], wo: [f64; 3]) -
                 let g = dot(wo, peak).clamp(0.0, 1.0);
                 l.amplitude[k] as f64 * g.powf(l.params[0] as f64)
             }
-            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
-                let v =
-                    microfacet_variants_with(&l.params, wi, wo, l.kind == LobeKind::MicrofacetSin2);
+            LobeKind::Microfacet | LobeKind::MicrofacetSin2 | LobeKind::MicrofacetAniso => {
+                let v = microfacet_kind_variants(l.kind, &l.params, wi, wo);
                 (0..4).map(|j| l.amplitude[j * t + k] as f64 * v[j]).sum()
             }
         })

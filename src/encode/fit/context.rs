@@ -197,15 +197,14 @@ impl FitContext {
                         }
                     }
                 }
-                LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
+                LobeKind::Microfacet | LobeKind::MicrofacetSin2 | LobeKind::MicrofacetAniso => {
                     let wi = dir_from_deg(r.theta_i as f64, r.phi_i as f64);
-                    let sin2 = lobe.kind == LobeKind::MicrofacetSin2;
                     for (i, d) in dirs.iter().enumerate() {
-                        let v = crate::model::lobes::microfacet_variants_with(
+                        let v = crate::model::lobes::microfacet_kind_variants(
+                            lobe.kind,
                             &lobe.params,
                             wi,
                             *d,
-                            sin2,
                         );
                         for kk in 0..k {
                             c[(i, kk)] += (0..4)
