@@ -261,6 +261,13 @@ fn golden_files_decode_to_their_source_material() {
                 let ggx = sbrdf::io::synth::Ggx::colorchecker(alpha, kd, f[2], f[3], &wl).unwrap();
                 Box::new(move |i, o, w| ggx.value(i, o, w))
             }
+            "ggx-aniso" => {
+                let [ax, ay, axis, kd] = [1, 2, 3, 6].map(|i| f[i].parse::<f64>().unwrap());
+                let ggx = sbrdf::io::synth::Ggx::colorchecker(ax, kd, f[4], f[5], &wl)
+                    .unwrap()
+                    .with_anisotropy(ay, axis);
+                Box::new(move |i, o, w| ggx.value(i, o, w))
+            }
             "abc" => {
                 let abc = sbrdf::io::synth::Abc::from_table(f[1], f[2], &wl).unwrap();
                 Box::new(move |i, o, w| abc.value(i, o, w))

@@ -39,6 +39,9 @@ pub enum LobeArg {
     Microfacet,
     /// The same in sin²θh (GGX-shaped).
     MicrofacetSin2,
+    /// The same with two roughnesses along turned surface axes (anisotropic GGX-shaped: brushed
+    /// metal, satin); used only when the input has several incident azimuths.
+    MicrofacetAniso,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -131,9 +134,11 @@ pub struct EncodeOptionArgs {
     /// error) or `none` (no metadata chunk).
     #[arg(long, value_name = "LEVEL", default_value = "full")]
     pub meta: String,
-    /// The newest format version the file may use: 1.1 (stores evenly spaced wavelengths as a
-    /// range) or 1.0 (readable by every 1.0 reader). A file using no 1.1 feature is 1.0.
-    #[arg(long, value_name = "VERSION", default_value = "1.1")]
+    /// The newest format version the file may use: 1.2 (anisotropic lobes, for inputs with
+    /// several incident azimuths), 1.1 (evenly spaced wavelengths stored as a range, the shared
+    /// factor model) or 1.0 (readable by every 1.0 reader). A file is written as the lowest
+    /// version whose features it uses: one using no 1.1 feature is 1.0.
+    #[arg(long, value_name = "VERSION", default_value = "1.2")]
     pub format: String,
     /// Keep only the input's wavelengths within MIN:MAX nm (what a scene renders).
     #[arg(long, value_name = "MIN:MAX")]
@@ -180,6 +185,7 @@ impl EncodeOptionArgs {
                     LobeArg::CosinePower => LobeFamily::CosinePower,
                     LobeArg::Microfacet => LobeFamily::Microfacet,
                     LobeArg::MicrofacetSin2 => LobeFamily::MicrofacetSin2,
+                    LobeArg::MicrofacetAniso => LobeFamily::MicrofacetAniso,
                 })
                 .collect(),
             sample_positions: !a.no_sample_positions,

@@ -438,6 +438,28 @@ pub type Progress<'a> = &'a (dyn Fn(usize, usize) + Sync);
 
 /// Fits every incident direction (in parallel; the result does not depend on the thread count,
 /// since each incidence is fitted alone and results are collected in order).
+/// The lobe families the fit tries on `set`: those asked for, and with the default families the
+/// anisotropic one (kind 5) too where the input has several incident azimuths and the format
+/// allows it (1.2). Never on an isotropic input (one azimuth), whose records are evaluated in the
+/// plane of incidence, where a surface axis has no meaning, nor under `--format 1.0` or `1.1`,
+/// whose readers do not know kind 5; so isotropic inputs encode as before kind 5 existed.
+pub fn lobe_families(opts: &EncodeOptions, set: &SampleSet) -> Vec<LobeFamily> {
+    let allowed = !set.is_isotropic() && opts.format_minor >= crate::format::VERSION_MINOR_ANISO;
+    let mut families: Vec<LobeFamily> = opts
+        .lobes
+        .iter()
+        .copied()
+        .filter(|f| allowed || *f != LobeFamily::MicrofacetAniso)
+        .collect();
+    if allowed
+        && opts.lobes == EncodeOptions::default().lobes
+        && !families.contains(&LobeFamily::MicrofacetAniso)
+    {
+        families.push(LobeFamily::MicrofacetAniso);
+    }
+    families
+}
+
 /// Per-incidence records (`ModelChoice::Records`), reporting progress as incidences finish.
 pub fn encode_records_with_progress(
     set: &SampleSet,
@@ -446,6 +468,11 @@ pub fn encode_records_with_progress(
 ) -> Result<Encoded> {
     set.validate()
         .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
+    // The families actually tried, which the metadata records.
+    let opts = &EncodeOptions {
+        lobes: lobe_families(opts, set),
+        ..opts.clone()
+    };
     let (terms, table) = opts.terms_and_table(set);
     opts.check(set, terms)?;
     let mut spectral = spectral_space(opts.basis, terms, &set.wavelengths);

@@ -132,10 +132,11 @@ pub fn parse_lobe(s: &str) -> Result<LobeFamily> {
         "gaussian" => Ok(LobeFamily::Gaussian),
         "microfacet" => Ok(LobeFamily::Microfacet),
         "microfacet-sin2" => Ok(LobeFamily::MicrofacetSin2),
+        "microfacet-aniso" => Ok(LobeFamily::MicrofacetAniso),
         _ => Err(bad(
             "lobes",
             s,
-            "cosine-power, gaussian, microfacet or microfacet-sin2",
+            "cosine-power, gaussian, microfacet, microfacet-sin2 or microfacet-aniso",
         )),
     }
 }
@@ -164,7 +165,8 @@ pub fn parse_format(s: &str) -> Result<u16> {
     match s.trim() {
         "1.0" => Ok(0),
         "1.1" => Ok(1),
-        _ => Err(bad("format", s, "1.0 or 1.1")),
+        "1.2" => Ok(2),
+        _ => Err(bad("format", s, "1.0, 1.1 or 1.2")),
     }
 }
 

@@ -112,7 +112,9 @@ fn prepare(ctx: &FitContext, s: &IncidentSamples) -> Result<Incidence, String> {
 }
 
 /// Shape parameters are searched unconstrained: Gaussian [ln b]; cosine power [ln n];
-/// microfacet [ln b, ln c, logit a].
+/// microfacet [ln b, ln c, logit a]; anisotropic microfacet [ln bx, ln by, ln c, logit ax,
+/// logit ay, ψ/30° (any real; ψ wrapped into [0, 180), scaled so that the search's steps turn
+/// the axis by tens of degrees)].
 fn decode_params(family: LobeFamily, x: &[f64]) -> Vec<f64> {
     match family {
         LobeFamily::Gaussian => vec![x[0].clamp(-30.0, 30.0).exp()],
@@ -123,6 +125,31 @@ fn decode_params(family: LobeFamily, x: &[f64]) -> Vec<f64> {
             x[1].clamp(0.05f64.ln(), 30.0).exp(),
             1.0 / (1.0 + (-x[2]).exp()),
         ],
+        LobeFamily::MicrofacetAniso => {
+            let b = |v: f64| v.clamp(-30.0, 7.0 * std::f64::consts::LN_10).exp();
+            let logistic = |v: f64| 1.0 / (1.0 + (-v).exp());
+            let (mut bx, mut by) = (b(x[0]), b(x[1]));
+            let (mut ax, mut ay) = (logistic(x[3]), logistic(x[4]));
+            let mut psi = 30.0 * x[5];
+            // One lobe has two descriptions (the axes swapped and ψ turned by 90°); records keep
+            // the one whose first axis is the narrower (bx ≥ by), so that neighbouring records
+            // of one material agree and blend parameter by parameter.
+            if bx < by {
+                std::mem::swap(&mut bx, &mut by);
+                std::mem::swap(&mut ax, &mut ay);
+                psi += 90.0;
+            }
+            let psi = psi.rem_euclid(180.0);
+            vec![
+                bx,
+                by,
+                x[2].clamp(0.05f64.ln(), 30.0).exp(),
+                ax,
+                ay,
+                // Stored as f32 in [0, 180): a value that rounds up to 180 is the axis at 0.
+                if psi as f32 >= 180.0 { 0.0 } else { psi },
+            ]
+        }
     }
 }
 
@@ -142,12 +169,25 @@ fn lobe_columns(inc: &Incidence, family: LobeFamily, params: &[f64]) -> DMatrix<
                 inc.alpha2.iter().map(|a| a.sqrt().cos().max(0.0).powf(n)),
             )
         }
-        LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 => {
+        LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 | LobeFamily::MicrofacetAniso => {
             let p32: Vec<f32> = params.iter().map(|&v| v as f32).collect();
-            let sin2 = family == LobeFamily::MicrofacetSin2;
+            let kind = match family {
+                LobeFamily::Microfacet => LobeKind::Microfacet,
+                LobeFamily::MicrofacetSin2 => LobeKind::MicrofacetSin2,
+                _ => LobeKind::MicrofacetAniso,
+            };
             let mut m = DMatrix::zeros(inc.n, 4);
+            let p64 = [0, 1, 2, 3, 4, 5].map(|i| p32.get(i).map_or(0.0, |&v| v as f64));
+            let axis = p64[5].to_radians().sin_cos();
             for (i, d) in inc.dirs.iter().enumerate() {
-                let v = crate::model::lobes::microfacet_variants_with(&p32, inc.wi, *d, sin2);
+                let v = if kind == LobeKind::MicrofacetAniso {
+                    match crate::model::lobes::MicrofacetGeometry::new(inc.wi, *d) {
+                        Some(g) => g.variants_aniso_with_axis(p64, axis, inc.wi, *d),
+                        None => [0.0; 4],
+                    }
+                } else {
+                    crate::model::lobes::microfacet_kind_variants(kind, &p32, inc.wi, *d)
+                };
                 for j in 0..4 {
                     m[(i, j)] = v[j];
                 }
@@ -172,6 +212,35 @@ fn initial_grid(family: LobeFamily) -> Vec<Vec<f64>> {
                 for i in 0..9 {
                     for c in [0.4f64, 1.2, 3.0] {
                         g.push(vec![15.0 * i as f64 / 8.0, c.ln(), (a / (1.0 - a)).ln()]);
+                    }
+                }
+            }
+            g
+        }
+        LobeFamily::MicrofacetAniso => {
+            // Widths from broad to narrow, the second axis as narrow or up to 25× broader in b
+            // (5× in roughness), the first axis every 30°; GGX's c and the shadowing
+            // roughnesses GGX has for these widths (a = 1/√(1 + b)), which the search then
+            // frees. Both axes are searched from every start, so the starts need not cover
+            // by > bx.
+            let logit_ggx_a = |lb: f64| {
+                let a = (1.0 / (1.0 + lb.exp())).sqrt().clamp(1e-3, 1.0 - 1e-3);
+                (a / (1.0 - a)).ln()
+            };
+            let mut g = Vec::new();
+            for i in 0..9 {
+                let lbx = 15.0 * i as f64 / 8.0;
+                for ratio in [1.0f64, 5.0, 25.0] {
+                    let lby = lbx - ratio.ln();
+                    for psi in 0..6 {
+                        g.push(vec![
+                            lbx,
+                            lby,
+                            2f64.ln(),
+                            logit_ggx_a(lbx),
+                            logit_ggx_a(lby),
+                            psi as f64,
+                        ]);
                     }
                 }
             }
@@ -372,12 +441,17 @@ impl LevelFit {
                 amplitude: (0..r).map(|kk| x[(p, kk)] as f32).collect(),
                 params: vec![params[0] as f32],
             }],
-            Some((fam @ (LobeFamily::Microfacet | LobeFamily::MicrofacetSin2), params)) => {
+            Some((
+                fam @ (LobeFamily::Microfacet
+                | LobeFamily::MicrofacetSin2
+                | LobeFamily::MicrofacetAniso),
+                params,
+            )) => {
                 vec![Lobe {
-                    kind: if *fam == LobeFamily::Microfacet {
-                        LobeKind::Microfacet
-                    } else {
-                        LobeKind::MicrofacetSin2
+                    kind: match fam {
+                        LobeFamily::Microfacet => LobeKind::Microfacet,
+                        LobeFamily::MicrofacetSin2 => LobeKind::MicrofacetSin2,
+                        _ => LobeKind::MicrofacetAniso,
                     },
                     amplitude: (0..4)
                         .flat_map(|j| (0..r).map(move |kk| (j, kk)))
@@ -418,6 +492,7 @@ fn record_bytes(
         Some(LobeFamily::Gaussian) => 4 + terms * s + 4 * terms,
         Some(LobeFamily::CosinePower) => 4 + terms * s + 4,
         Some(LobeFamily::Microfacet | LobeFamily::MicrofacetSin2) => 4 + 4 * terms * s + 12,
+        Some(LobeFamily::MicrofacetAniso) => 4 + 4 * terms * s + 24,
     };
     12 + 40 + terms * sh_count(level) * s + lobe
 }

@@ -34,6 +34,9 @@ pub enum LobeFamily {
     MicrofacetSin2,
     /// Phong's cosine-power lobe about the peak direction (kind 4).
     CosinePower,
+    /// The anisotropic microfacet lobe (kind 5; holds anisotropic GGX exactly): tried only on
+    /// inputs with several incident azimuths, where a material's surface axes mean something.
+    MicrofacetAniso,
 }
 
 impl LobeFamily {
@@ -43,6 +46,7 @@ impl LobeFamily {
             LobeFamily::Microfacet => "microfacet",
             LobeFamily::MicrofacetSin2 => "microfacet-sin2",
             LobeFamily::CosinePower => "cosine-power",
+            LobeFamily::MicrofacetAniso => "microfacet-aniso",
         }
     }
 }
