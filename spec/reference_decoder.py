@@ -218,7 +218,7 @@ def mean_axis(pairs):
     the doubled angles' mean vanishes."""
     x = sum(wgt * math.cos(math.radians(2 * psi)) for wgt, psi in pairs)
     y = sum(wgt * math.sin(math.radians(2 * psi)) for wgt, psi in pairs)
-    if x == 0.0 and y == 0.0:
+    if math.hypot(x, y) <= 1e-9 * sum(abs(wgt) for wgt, _ in pairs):
         return None
     psi = 0.5 * math.degrees(math.atan2(y, x))
     if psi < 0:

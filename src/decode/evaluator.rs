@@ -385,7 +385,7 @@ impl Evaluator {
                     wa / wsum
                 };
                 // An axis, not a direction (ψ and ψ + 180° are one axis): the doubled angles
-                // averaged; opposite axes with equal weights keep the first record's.
+                // averaged; perpendicular axes with equal weights keep the first record's.
                 let psi = if single {
                     stored(recs[0], 5)
                 } else {
