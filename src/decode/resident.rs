@@ -260,15 +260,27 @@ impl Resident {
     }
 }
 
-/// Heap bytes of a factor model's spectra and tables.
+/// Heap bytes of a factor model: its components, their spectra and tables, and the vectors
+/// that hold them (a `Vec` of `Vec`s allocates the inner vectors' headers too).
 fn factor_heap_bytes(f: &FactorModel) -> usize {
-    f.components
-        .iter()
-        .map(|c| {
-            4 * (c.spectrum.capacity()
-                + c.modulation.iter().map(Vec::capacity).sum::<usize>()
-                + c.tables.iter().flatten().map(Vec::capacity).sum::<usize>())
-                + c.features.capacity() * std::mem::size_of::<crate::model::factor::Feature>()
-        })
-        .sum()
+    use crate::model::factor::{FactorComponent, Feature};
+    use std::mem::size_of;
+    f.components.capacity() * size_of::<FactorComponent>()
+        + f.components
+            .iter()
+            .map(|c| {
+                c.features.capacity() * size_of::<Feature>()
+                    + 4 * c.spectrum.capacity()
+                    + c.modulation.capacity() * size_of::<Vec<f32>>()
+                    + 4 * c.modulation.iter().map(Vec::capacity).sum::<usize>()
+                    + c.tables.capacity() * size_of::<Vec<Vec<f32>>>()
+                    + c.tables
+                        .iter()
+                        .map(|r| {
+                            r.capacity() * size_of::<Vec<f32>>()
+                                + 4 * r.iter().map(Vec::capacity).sum::<usize>()
+                        })
+                        .sum::<usize>()
+            })
+            .sum::<usize>()
 }
