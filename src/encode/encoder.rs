@@ -615,7 +615,7 @@ pub fn encode_records_with_progress(
         MetaLevel::None => None,
         level => Some(metadata_json(opts, rel_error, level == MetaLevel::Short)),
     };
-    let material = Material {
+    let mut material = Material {
         version_minor: opts.format_minor.min(crate::format::VERSION_MINOR),
         spectral,
         sh_level: opts.effective_sh_level(),
@@ -633,6 +633,9 @@ pub fn encode_records_with_progress(
         factor: None,
         held_out,
     };
+    // The version the file will declare (the lowest whose features it uses), so that the
+    // material read back from it is this one.
+    material.version_minor = crate::format::written_version(&material).0;
     material
         .validate()
         .map_err(|e| Error::Parameter(format!("encoder produced an invalid material: {e}")))?;

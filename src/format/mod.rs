@@ -10,7 +10,7 @@ mod read;
 mod write;
 
 pub use read::read_material;
-pub use write::{f16_scale, quantize_record_f16, write_material};
+pub use write::{f16_scale, quantize_record_f16, write_material, written_version};
 
 /// The first ten bytes of every file. 0x89 catches 7-bit transports, "\r\n" and "\n" catch
 /// line-ending translation, 0x1A stops `type` on old systems (PNG's design).

@@ -57,6 +57,27 @@ fn push_chunk(out: &mut Vec<u8>, kind: [u8; 4], data: &[u8]) {
 }
 
 /// Serialises a material. Fails only if it breaks an invariant of the format.
+/// The minor version `m` is written as, and whether its wavelengths are stored as a range.
+/// Version 1.1's range is used when the material allows 1.1 features (`version_minor` ≥ 1) and
+/// its wavelengths are evenly spaced; a factor model (`FACT`) is a 1.1 feature and an
+/// anisotropic lobe (kind 5) a 1.2 feature whatever the material asks. A file without 1.1
+/// features is written as 1.0, byte for byte. Reading the file back gives this minor version.
+pub fn written_version(m: &Material) -> (u16, bool) {
+    let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
+    let aniso = m
+        .records
+        .iter()
+        .any(|r| r.lobes.iter().any(|l| l.kind == LobeKind::MicrofacetAniso));
+    let minor = if aniso {
+        VERSION_MINOR_ANISO
+    } else if range || m.factor.is_some() {
+        VERSION_MINOR_FACTOR
+    } else {
+        0
+    };
+    (minor, range)
+}
+
 pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     m.validate()
         .map_err(|e| Error::Parameter(format!("cannot write this material: {e}")))?;
@@ -64,22 +85,7 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     let mut out = Vec::new();
     out.extend_from_slice(&SIGNATURE);
 
-    // Version 1.1's range is used when the material allows 1.1 features and its wavelengths
-    // are evenly spaced; a factor model (FACT) is a 1.1 feature whatever the material asks. A
-    // file without 1.1 features is written as 1.0, byte for byte.
-    let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
-    // An anisotropic lobe (kind 5) is a 1.2 feature, whatever the material asks, as FACT is 1.1.
-    let aniso = m
-        .records
-        .iter()
-        .any(|r| r.lobes.iter().any(|l| l.kind == LobeKind::MicrofacetAniso));
-    let minor: u16 = if aniso {
-        VERSION_MINOR_ANISO
-    } else if range || m.factor.is_some() {
-        VERSION_MINOR_FACTOR
-    } else {
-        0
-    };
+    let (minor, range) = written_version(m);
     let mut flags = if m.isotropic { FLAG_ISOTROPIC } else { 0 };
     if range {
         flags |= FLAG_WAVELENGTH_RANGE;
