@@ -165,38 +165,43 @@ def sh_eval(level, w):
 
 # ---------------------------------------------------------------- lobes
 
-def microfacet_variants(kind, b, c, a, wi, w):
-    """The four variants of kinds 2 and 3 ("Lobes")."""
+def microfacet_geometry(wi, w):
+    """What the variants of kinds 2, 3 and 5 share ("Lobes"): h, ch, cd, ci, co, Vc and F, or
+    None when s = ωi + ω is (0, 0, 0) (every variant is then 0)."""
     s = (wi[0] + w[0], wi[1] + w[1], wi[2] + w[2])
     if s == (0.0, 0.0, 0.0):
-        return (0.0, 0.0, 0.0, 0.0)
+        return None
     n = math.sqrt(dot(s, s))
     h = (s[0] / n, s[1] / n, s[2] / n)
     ch = min(max(h[2], 0.0), 1.0)
     cd = min(max(dot(wi, h), 1e-6), 1.0)
     ci = max(wi[2], 1e-6)
     co = max(w[2], 1e-6)
+    vc = min(1.0 / (ci * co), 2 * ch / (cd * ci), 2 * ch / (cd * co))
+    f = (1.0 - cd) ** 5
+    return h, ch, ci, co, vc, f
+
+
+def microfacet_variants(kind, b, c, a, wi, w):
+    """The four variants of kinds 2 and 3 ("Lobes")."""
+    g = microfacet_geometry(wi, w)
+    if g is None:
+        return (0.0, 0.0, 0.0, 0.0)
+    h, ch, ci, co, vc, f = g
     x = 1.0 - ch if kind == 2 else 1.0 - ch * ch
     dist = (1.0 + b * x) ** (-c)
     vs = 1.0 / (co * math.sqrt(a * a + (1 - a * a) * ci * ci)
                 + ci * math.sqrt(a * a + (1 - a * a) * co * co))
-    vc = min(1.0 / (ci * co), 2 * ch / (cd * ci), 2 * ch / (cd * co))
-    f = (1.0 - cd) ** 5
     return (dist * vs, dist * vs * f, dist * vc, dist * vc * f)
 
 
 def microfacet_aniso_variants(params, wi, w):
     """The four variants of kind 5 ("Lobes", version 1.2)."""
     bx, by, c, ax, ay, psi = params
-    s = (wi[0] + w[0], wi[1] + w[1], wi[2] + w[2])
-    if s == (0.0, 0.0, 0.0):
+    g = microfacet_geometry(wi, w)
+    if g is None:
         return (0.0, 0.0, 0.0, 0.0)
-    n = math.sqrt(dot(s, s))
-    h = (s[0] / n, s[1] / n, s[2] / n)
-    ch = min(max(h[2], 0.0), 1.0)
-    cd = min(max(dot(wi, h), 1e-6), 1.0)
-    ci = max(wi[2], 1e-6)
-    co = max(w[2], 1e-6)
+    h, ch, ci, co, vc, f = g
     cp, sp = math.cos(math.radians(psi)), math.sin(math.radians(psi))
 
     def along(x):
@@ -208,8 +213,6 @@ def microfacet_aniso_variants(params, wi, w):
     dist = (1.0 + bx * hu * hu + by * hv * hv) ** (-c)
     vs = 1.0 / (co * math.sqrt(ci * ci + ax * ax * iu * iu + ay * ay * iv * iv)
                 + ci * math.sqrt(co * co + ax * ax * ou * ou + ay * ay * ov * ov))
-    vc = min(1.0 / (ci * co), 2 * ch / (cd * ci), 2 * ch / (cd * co))
-    f = (1.0 - cd) ** 5
     return (dist * vs, dist * vs * f, dist * vc, dist * vc * f)
 
 

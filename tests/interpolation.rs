@@ -8,16 +8,7 @@ use sbrdf::io::synth::{paper_grid, Phong};
 use sbrdf::Decoder;
 
 fn error_at(dec: &Decoder, phong: &Phong, inc: (f64, f64)) -> f64 {
-    let wl = paper_wavelengths();
-    let (mut approx, mut truth) = (Vec::new(), Vec::new());
-    let mut out = vec![0.0; wl.len()];
-    for d in paper_grid(5.0, 5.0) {
-        let o = (d[0], d[1]);
-        dec.eval_deg(inc, o, &wl, &mut out);
-        approx.extend_from_slice(&out);
-        truth.extend((0..wl.len()).map(|w| phong.value(inc, o, w)));
-    }
-    rel_l2(&approx, &truth)
+    error_on_paper_grid(dec, inc, |i, o, w| phong.value(i, o, w))
 }
 
 #[test]

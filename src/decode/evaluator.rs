@@ -340,8 +340,9 @@ impl Evaluator {
         }
     }
 
-    /// The blended shape of the shared lobe at position `li`: exponents and microfacet b, c
-    /// geometrically, microfacet a linearly, the peak direction by "Blended peak direction".
+    /// The blended shape of the shared lobe at position `li`: exponents and microfacet b, c (bx,
+    /// by) geometrically, microfacet a (ax, ay) linearly, the axis by [`Evaluator::blended_axis`],
+    /// the peak direction by "Blended peak direction".
     #[inline(always)]
     pub(crate) fn shared_shape(&self, inc: &Incident, li: usize) -> LobeShape {
         let res = &self.res;
@@ -360,6 +361,18 @@ impl Evaluator {
             }
             s.exp()
         };
+        let lin = |i: usize| -> f64 {
+            if single {
+                return res.params[l0.par as usize + i] as f64;
+            }
+            let (mut wa, mut wsum) = (0.0, 0.0);
+            for (&r, &w) in recs.iter().zip(ws) {
+                wa += w * res.params[res.lobe(&res.recs[r], li).par as usize + i] as f64;
+                wsum += w;
+            }
+            wa / wsum
+        };
+        let r32 = |v: f64| v as f32 as f64;
         match l0.kind {
             LobeKind::AngleGaussian => LobeShape {
                 peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
@@ -369,68 +382,36 @@ impl Evaluator {
                 peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
                 p: [geo(0), 0.0, 0.0, 0.0, 0.0, 0.0],
             },
-            LobeKind::MicrofacetAniso => {
-                let stored = |r: usize, i: usize| {
-                    res.params[res.lobe(&res.recs[r], li).par as usize + i] as f64
-                };
-                let lin = |i: usize| -> f64 {
-                    if single {
-                        return stored(recs[0], i);
-                    }
-                    let (mut wa, mut wsum) = (0.0, 0.0);
-                    for (&r, &w) in recs.iter().zip(ws) {
-                        wa += w * stored(r, i);
-                        wsum += w;
-                    }
-                    wa / wsum
-                };
-                // An axis, not a direction (ψ and ψ + 180° are one axis): the doubled angles
-                // averaged; perpendicular axes with equal weights keep the first record's.
-                let psi = if single {
-                    stored(recs[0], 5)
-                } else {
-                    crate::model::angles::mean_axis_deg(
-                        recs.iter().zip(ws).map(|(&r, &w)| (w, stored(r, 5))),
-                    )
-                    .unwrap_or_else(|| stored(recs[0], 5))
-                };
-                let r32 = |v: f64| v as f32 as f64;
-                LobeShape {
-                    peak: [0.0; 3],
-                    p: [
-                        r32(geo(0)),
-                        r32(geo(1)),
-                        r32(geo(2)),
-                        r32(lin(3)),
-                        r32(lin(4)),
-                        r32(psi),
-                    ],
-                }
-            }
-            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
-                let a = if single {
-                    res.params[l0.par as usize + 2] as f64
-                } else {
-                    let (mut wa, mut wsum) = (0.0, 0.0);
-                    for (&r, &w) in recs.iter().zip(ws) {
-                        wa += w * res.params[res.lobe(&res.recs[r], li).par as usize + 2] as f64;
-                        wsum += w;
-                    }
-                    wa / wsum
-                };
-                LobeShape {
-                    peak: [0.0; 3],
-                    p: [
-                        geo(0) as f32 as f64,
-                        geo(1) as f32 as f64,
-                        a as f32 as f64,
-                        0.0,
-                        0.0,
-                        0.0,
-                    ],
-                }
-            }
+            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => LobeShape {
+                peak: [0.0; 3],
+                p: [r32(geo(0)), r32(geo(1)), r32(lin(2)), 0.0, 0.0, 0.0],
+            },
+            LobeKind::MicrofacetAniso => LobeShape {
+                peak: [0.0; 3],
+                p: [
+                    r32(geo(0)),
+                    r32(geo(1)),
+                    r32(geo(2)),
+                    r32(lin(3)),
+                    r32(lin(4)),
+                    r32(self.blended_axis(recs, ws, li)),
+                ],
+            },
         }
+    }
+
+    /// The axis angle ψ (degrees) of the kind-5 lobe at position `li` blended from the records
+    /// `recs` with weights `ws`: an axis, not a direction (ψ and ψ + 180° are one axis), so the
+    /// doubled angles are averaged; perpendicular axes with equal weights keep the first
+    /// record's (`spec/EVALUATION.md`, "Lobes by position").
+    pub(crate) fn blended_axis(&self, recs: &[usize], ws: &[f64], li: usize) -> f64 {
+        let res = &self.res;
+        let psi = |r: usize| res.params[res.lobe(&res.recs[r], li).par as usize + 5] as f64;
+        if recs.len() == 1 {
+            return psi(recs[0]);
+        }
+        crate::model::angles::mean_axis_deg(recs.iter().zip(ws).map(|(&r, &w)| (w, psi(r))))
+            .unwrap_or_else(|| psi(recs[0]))
     }
 
     /// The peak direction of a lobe blended from the records `recs` with weights `ws`, at the

@@ -487,22 +487,12 @@ fn lobe_shape(
             Shape::visible_normals(lobe0.kind == LobeKind::MicrofacetSin2, b, c, wi)
         }
         LobeKind::MicrofacetAniso => {
-            let stored =
-                |r: usize, i: usize| res.params[res.lobe(&res.recs[r], li).par as usize + i] as f64;
-            let psi = if recs.len() == 1 {
-                stored(recs[0], 5)
-            } else {
-                crate::model::angles::mean_axis_deg(
-                    recs.iter().zip(ws).map(|(&r, &w)| (w, stored(r, 5))),
-                )
-                .unwrap_or_else(|| stored(recs[0], 5))
-            };
             let r32 = |v: f64| v as f32 as f64;
             Shape::visible_normals_aniso(
                 r32(geo_mean(0)),
                 r32(geo_mean(1)),
                 r32(geo_mean(2)),
-                r32(psi),
+                r32(dec.blended_axis(recs, ws, li)),
                 wi,
             )
         }

@@ -169,3 +169,22 @@ pub fn sbrdf(args: &[&str], dir: &std::path::Path) -> std::process::Output {
 pub fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
+
+/// Relative L2 error of `dec` against the material `truth` (incidence, outgoing, wavelength
+/// index → value) at incidence `inc`, over the paper's 5° outgoing grid and wavelengths.
+pub fn error_on_paper_grid(
+    dec: &sbrdf::Decoder,
+    inc: (f64, f64),
+    truth: impl Fn((f64, f64), (f64, f64), usize) -> f64,
+) -> f64 {
+    let wl = paper_wavelengths();
+    let (mut approx, mut reference) = (Vec::new(), Vec::new());
+    let mut out = vec![0.0; wl.len()];
+    for d in paper_grid(5.0, 5.0) {
+        let o = (d[0], d[1]);
+        dec.eval_deg(inc, o, &wl, &mut out);
+        approx.extend_from_slice(&out);
+        reference.extend((0..wl.len()).map(|w| truth(inc, o, w)));
+    }
+    rel_l2(&approx, &reference)
+}

@@ -171,11 +171,7 @@ fn lobe_columns(inc: &Incidence, family: LobeFamily, params: &[f64]) -> DMatrix<
         }
         LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 | LobeFamily::MicrofacetAniso => {
             let p32: Vec<f32> = params.iter().map(|&v| v as f32).collect();
-            let kind = match family {
-                LobeFamily::Microfacet => LobeKind::Microfacet,
-                LobeFamily::MicrofacetSin2 => LobeKind::MicrofacetSin2,
-                _ => LobeKind::MicrofacetAniso,
-            };
+            let kind = family.kind();
             let mut m = DMatrix::zeros(inc.n, 4);
             let p64 = [0, 1, 2, 3, 4, 5].map(|i| p32.get(i).map_or(0.0, |&v| v as f64));
             let axis = p64[5].to_radians().sin_cos();
@@ -448,11 +444,7 @@ impl LevelFit {
                 params,
             )) => {
                 vec![Lobe {
-                    kind: match fam {
-                        LobeFamily::Microfacet => LobeKind::Microfacet,
-                        LobeFamily::MicrofacetSin2 => LobeKind::MicrofacetSin2,
-                        _ => LobeKind::MicrofacetAniso,
-                    },
+                    kind: fam.kind(),
                     amplitude: (0..4)
                         .flat_map(|j| (0..r).map(move |kk| (j, kk)))
                         .map(|(j, kk)| x[(p + j, kk)] as f32)

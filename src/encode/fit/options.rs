@@ -1,6 +1,7 @@
 //! What a fit is asked to do: the peak mode, the critical angle of the paper's split, the lobe
 //! families and the budget of the joint fit.
 
+use crate::model::material::LobeKind;
 use crate::model::Precision;
 
 /// How the specular peak is represented.
@@ -40,6 +41,17 @@ pub enum LobeFamily {
 }
 
 impl LobeFamily {
+    /// The lobe kind a record stores for this family.
+    pub fn kind(self) -> LobeKind {
+        match self {
+            LobeFamily::Gaussian => LobeKind::AngleGaussian,
+            LobeFamily::Microfacet => LobeKind::Microfacet,
+            LobeFamily::MicrofacetSin2 => LobeKind::MicrofacetSin2,
+            LobeFamily::CosinePower => LobeKind::CosinePower,
+            LobeFamily::MicrofacetAniso => LobeKind::MicrofacetAniso,
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             LobeFamily::Gaussian => "gaussian",
