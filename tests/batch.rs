@@ -170,3 +170,75 @@ fn the_resident_form_gives_back_the_material_and_the_bytes() {
         assert_eq!(Decoder::from_bytes(&bytes).unwrap().into_material(), read);
     }
 }
+
+/// `eval` takes two shortcuts — one wavelength on a θ line (`src/decode/line.rs`: terms before
+/// records, the lobes read by position) and many wavelengths of a tabulated basis from node sums
+/// (`SpectrumEvaluator::eval_clamped`) — that must give its general path's values to rounding:
+/// each is checked against the same query with the wavelength given twice, which takes neither.
+/// On every golden file, and on the benchmark's Phong and GGX materials (θ lines, one lobe).
+#[test]
+fn evals_shortcuts_give_its_general_paths_values() {
+    use sbrdf::encode::encoder::{encode, EncodeOptions};
+    use sbrdf::io::synth::{paper_grid, sample_material, Ggx, Phong};
+    let wl: Vec<f64> = (0..31).map(|i| 400.0 + 10.0 * i as f64).collect();
+    let grid = paper_grid(10.0, 10.0);
+    let phong = Phong::colorchecker("green", "white", (1.0, 15.0, 50.0), &wl).unwrap();
+    let ggx = Ggx::colorchecker(0.2, 1.0, "blue", "yellow", &wl).unwrap();
+    let incs: Vec<(f64, f64)> = (0..5).map(|i| (18.0 * i as f64, 0.0)).collect();
+    let mut decoders: Vec<(String, Decoder)> = files()
+        .into_iter()
+        .map(|(p, b)| (p.display().to_string(), Decoder::from_bytes(&b).unwrap()))
+        .collect();
+    for (name, set) in [
+        (
+            "phong",
+            sample_material(&wl, &incs, &grid, |i, o, w| phong.value(i, o, w)),
+        ),
+        (
+            "ggx",
+            sample_material(&wl, &incs, &grid, |i, o, w| ggx.value(i, o, w)),
+        ),
+    ] {
+        let enc = encode(&set, &EncodeOptions::default()).unwrap();
+        let bytes = write_material(&enc.material).unwrap();
+        decoders.push((name.to_string(), Decoder::from_bytes(&bytes).unwrap()));
+    }
+    let (wi, wo) = pairs();
+    for (name, dec) in &decoders {
+        let w = dec.material().wavelengths.clone();
+        let (lo, hi) = (w[0], w[w.len() - 1]);
+        let ones = [lo, 0.37 * lo + 0.63 * hi, hi, lo - 20.0];
+        // The general path: one wavelength given twice.
+        let general = |a, b, l: f32| {
+            let mut two = [f32::NAN; 2];
+            dec.eval(a, b, &[l, l], &mut two);
+            assert_eq!(two[0].to_bits(), two[1].to_bits());
+            two[0]
+        };
+        let mut scale = 0.0f32;
+        for (&a, &b) in wi.iter().zip(&wo) {
+            for &l in &ones {
+                scale = scale.max(general(a, b, l));
+            }
+        }
+        let close = |got: f32, want: f32, what: &str| {
+            let tol = 4.0 * f32::EPSILON * want.abs() + 1e-9 * scale;
+            assert!(
+                (got - want).abs() <= tol,
+                "{name}: {what}: {got} against the general path's {want}"
+            );
+        };
+        for (&a, &b) in wi.iter().zip(&wo) {
+            for &l in &ones {
+                let mut one = [f32::NAN];
+                dec.eval(a, b, &[l], &mut one);
+                close(one[0], general(a, b, l), &format!("{l} nm alone"));
+            }
+            let mut all = vec![f32::NAN; w.len()];
+            dec.eval(a, b, &w, &mut all);
+            for (&got, &l) in all.iter().zip(&w) {
+                close(got, general(a, b, l), &format!("{l} nm of {}", w.len()));
+            }
+        }
+    }
+}

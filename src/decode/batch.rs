@@ -1,14 +1,19 @@
 //! Many direction pairs per call: what a wavefront renderer, a vectorised language or a
 //! precomputation hands the decoder. Per batch, each requested wavelength's spectral basis
-//! values are computed once; per run of pairs with the same incident direction, the incident
-//! side of the query (records, weights, blended lobe shapes) is computed once. The values are
-//! exactly [`Decoder::eval`](crate::Decoder::eval)'s: the same operations in the same order.
+//! values (or, for many wavelengths of a tabulated basis, its cell among the nodes) are computed
+//! once; per run of pairs with the same incident direction, the incident side of the query
+//! (records, weights, blended lobe shapes) is computed once. The values are exactly
+//! [`Decoder::eval`](crate::Decoder::eval)'s: the same operations in the same order, through
+//! the same shortcuts (one wavelength on a θ line, node sums for many wavelengths).
 
-use super::evaluator::{Evaluator, Incident, LobeShape};
+use super::evaluator::{Evaluator, Incident, LobeShape, Shapes};
 use super::lattice::{unit, QueryFrame};
+use crate::model::spectral::{Cell, SpectrumEvaluator, NODE_SUMS};
 
 /// Basis values kept for a batch: K·M of them at most (8 KiB on the stack).
 const BASIS_VALUES: usize = 1024;
+/// Wavelength cells kept for a batch (8 KiB on the stack).
+const CELLS: usize = 512;
 
 /// The incident side of the current run of pairs; None when ωi gives ρ = 0 (zero, not finite,
 /// below the horizon).
@@ -51,6 +56,28 @@ pub(crate) fn eval_batch(
         }
     }
     let basis = &basis[..if tabulated { k * m } else { 0 }];
+    // Many wavelengths of a tabulated basis: `eval` interpolates node sums, so the batch does,
+    // with each wavelength's cell found once.
+    let mut cells = [Cell { i: 0, f: 0.0 }; CELLS];
+    let cells = if ev.res.spectrum.uses_node_sums(m) && m <= CELLS {
+        for (cell, &l) in cells.iter_mut().zip(wavelengths) {
+            let l = l as f64;
+            if l.is_finite() {
+                *cell = ev.res.spectrum.cell_of(l);
+            }
+        }
+        &cells[..m]
+    } else {
+        &cells[..0]
+    };
+    if m == 1 && ev.on_line() {
+        // One wavelength on a θ line: each pair as `eval` computes it (the line path's
+        // incident side costs less than keeping it).
+        for (i, o) in out[..n].iter_mut().enumerate() {
+            *o = line(ev, wi(i), wo(i), basis);
+        }
+        return;
+    }
     let mut key: Option<[u32; 3]> = None;
     let mut shapes = [LobeShape::default(); crate::model::material::MAX_LOBES];
     let mut cached: Cached = None;
@@ -62,7 +89,7 @@ pub(crate) fn eval_batch(
             // the incident side costs more than it saves); a run of equal wi keeps it.
             if i + 1 >= n || wi(i + 1).map(f32::to_bits) != bits {
                 key = None;
-                single(ev, a, wo(i), basis, k, wavelengths, row);
+                single(ev, a, wo(i), basis, cells, k, wavelengths, row);
                 continue;
             }
             key = Some(bits);
@@ -83,19 +110,25 @@ pub(crate) fn eval_batch(
             continue;
         };
         let w = q.in_frame(b);
+        if m == 1 && !basis.is_empty() && ev.one_wavelength(inc) {
+            row[0] = one(ev, inc, Some(&shapes), w, basis);
+            continue;
+        }
         ev.with_coefficients(inc, Some(&shapes), w, |c| {
-            finish(ev, c, basis, k, wavelengths, row)
+            finish(ev, c, basis, cells, k, wavelengths, row)
         });
     }
 }
 
 /// One pair on its own, as [`Evaluator::eval`] computes it, with the batch's basis values.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn single(
     ev: &Evaluator,
     a: [f32; 3],
     b: [f32; 3],
     basis: &[f64],
+    cells: &[Cell],
     k: usize,
     wavelengths: &[f32],
     row: &mut [f32],
@@ -110,23 +143,71 @@ fn single(
     }
     let q = ev.query_frame(a);
     let inc = ev.incident(q.theta, q.phi, Some(q.wi));
+    if wavelengths.len() == 1 && !basis.is_empty() && ev.one_wavelength(&inc) {
+        row[0] = one(ev, &inc, None, q.in_frame(b), basis);
+        return;
+    }
     ev.outgoing(&inc, q.in_frame(b), |c| {
-        finish(ev, c, basis, k, wavelengths, row)
+        finish(ev, c, basis, cells, k, wavelengths, row)
     });
 }
 
-/// ρ(λ_j) = max(0, Σ_k c_k·B_k(λ_j)) from the batch's basis values (or, when there were too
-/// many to keep, as `eval` computes them).
+/// ρ at the batch's one wavelength (basis values `basis`, NaN for a wavelength that is not
+/// finite) as `eval` computes it on the line path.
+#[inline(always)]
+fn line(ev: &Evaluator, a: [f32; 3], b: [f32; 3], basis: &[f64]) -> f32 {
+    let (Some(a), Some(b)) = (unit(a), unit(b)) else {
+        return 0.0;
+    };
+    if a[2] < 0.0 || b[2] < 0.0 || basis[0].is_nan() {
+        return 0.0;
+    }
+    ev.line_value(a, b, basis).max(0.0) as f32
+}
+
+/// ρ at the batch's one wavelength for a query whose incident side is `inc`, as `eval`
+/// computes it off the line path.
+#[inline(always)]
+fn one(
+    ev: &Evaluator,
+    inc: &Incident,
+    shapes: Option<&Shapes>,
+    wo: [f64; 3],
+    basis: &[f64],
+) -> f32 {
+    if basis[0].is_nan() {
+        return 0.0;
+    }
+    ev.value_at(inc, shapes, wo, &basis[..inc.terms]).max(0.0) as f32
+}
+
+/// ρ(λ_j) = max(0, Σ_k c_k·B_k(λ_j)) from the batch's cells (node sums interpolated) or basis
+/// values, or, when there were too many to keep, as `eval` computes them.
 #[inline(always)]
 fn finish(
     ev: &Evaluator,
     c: &[f64],
     basis: &[f64],
+    cells: &[Cell],
     k: usize,
     wavelengths: &[f32],
     row: &mut [f32],
 ) {
-    if basis.is_empty() {
+    if !cells.is_empty() {
+        // `eval`'s node sums, interpolated at the batch's cells.
+        let mut sums = [0.0f64; NODE_SUMS];
+        let sums = ev.res.spectrum.node_sums(c, &mut sums);
+        for ((o, &cell), &l) in row.iter_mut().zip(cells).zip(wavelengths) {
+            *o = if (l as f64).is_finite() {
+                SpectrumEvaluator::from_node_sums(sums, cell).max(0.0) as f32
+            } else {
+                0.0
+            };
+        }
+        return;
+    }
+    if basis.is_empty() || ev.res.spectrum.uses_node_sums(wavelengths.len()) {
+        // As `eval` computes it.
         ev.res.spectrum.eval_clamped(c, wavelengths, row);
         return;
     }

@@ -8,9 +8,10 @@
 //! share ωi.
 
 use super::lattice::{unit, Blend, Lattice, QueryFrame};
-use super::resident::Resident;
+use super::line::{line_lobes, line_sizes};
+use super::resident::{Rec, Resident};
 use crate::model::angles::phi_delta;
-use crate::model::angles::{angle_between, deg_from_dir, dir_from_deg, dot, mirror_deg};
+use crate::model::angles::{angle_between, deg_from_dir, dir_from_deg, dot, mirror_deg, polar_deg};
 use crate::model::factor::{FeatureValues, MAX_COMPONENTS, MAX_RANK};
 use crate::model::lobes::MicrofacetGeometry;
 use crate::model::material::{LobeKind, Material, MAX_LOBES, MAX_TERMS};
@@ -27,7 +28,7 @@ pub(crate) const SMALL_TERMS: usize = 16;
 #[derive(Debug, Clone)]
 pub(crate) struct Evaluator {
     pub(crate) res: Resident,
-    lattice: Lattice,
+    pub(crate) lattice: Lattice,
     small: bool,
     /// The stored θ range's ends with their sine and cosine: a query clamped to an end keeps
     /// its azimuth without trigonometry.
@@ -36,6 +37,53 @@ pub(crate) struct Evaluator {
     /// spectra's nodes, if any: evaluated at the query's own directions and added before the
     /// clamp ("Reconstruction", step 5).
     factor_nodes: Option<WavelengthNodes>,
+    /// What [`Evaluator::incident`] derives from the records a query blends, precomputed for
+    /// each record alone and, on a θ line, for each pair of neighbours (record i with i + 1).
+    pub(crate) alone: Vec<BlendInfo>,
+    pub(crate) pairs: Vec<BlendInfo>,
+    /// Whether one-wavelength queries take the line path (`super::line`).
+    on_line: bool,
+}
+
+/// T*, the highest SH level and the most lobes among the records a query blends, and bit li
+/// set when lobe position li is shared by all of them.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BlendInfo {
+    pub terms: u16,
+    pub level: u8,
+    pub nlobes: u8,
+    pub shared: u8,
+}
+
+impl BlendInfo {
+    fn of(res: &Resident, recs: &[usize]) -> Self {
+        let r0 = &res.recs[recs[0]];
+        let (mut terms, mut level, mut nlobes) = (r0.terms, r0.level, r0.nlobes);
+        for &r in &recs[1..] {
+            let rec = &res.recs[r];
+            terms = terms.max(rec.terms);
+            level = level.max(rec.level);
+            nlobes = nlobes.max(rec.nlobes);
+        }
+        // Position li is shared when every blended record has a lobe there, of one kind.
+        let mut shared = 0u8;
+        for li in 0..nlobes as usize {
+            let kind = (r0.kinds >> (4 * li)) & 15;
+            if kind != 0
+                && recs
+                    .iter()
+                    .all(|&r| (res.recs[r].kinds >> (4 * li)) & 15 == kind)
+            {
+                shared |= 1 << li;
+            }
+        }
+        BlendInfo {
+            terms,
+            level,
+            nlobes,
+            shared,
+        }
+    }
 }
 
 /// A factor model's angular terms T_cr at one pair of directions.
@@ -83,8 +131,25 @@ impl Evaluator {
         };
         let first = material.records.first().map_or(0.0, |r| r.theta_i as f64);
         let last = material.records.last().map_or(0.0, |r| r.theta_i as f64);
+        let res = Resident::new(material);
+        let n = res.recs.len();
+        let alone = (0..n).map(|r| BlendInfo::of(&res, &[r])).collect();
+        let pairs = match lattice {
+            Lattice::Theta(_) => (1..n).map(|r| BlendInfo::of(&res, &[r - 1, r])).collect(),
+            _ => Vec::new(),
+        };
+        let on_line = matches!(lattice, Lattice::Theta(_))
+            && material.factor.is_none()
+            && line_sizes(material.sh_level, material.spectral.terms)
+            && material
+                .records
+                .iter()
+                .all(|r| line_lobes(&r.lobes.iter().map(|l| l.kind).collect::<Vec<_>>()));
         Evaluator {
-            res: Resident::new(material),
+            res,
+            alone,
+            pairs,
+            on_line,
             lattice,
             small,
             theta_ends: [end(first), end(last)],
@@ -134,7 +199,9 @@ impl Evaluator {
             .factor_nodes
             .as_ref()
             .map_or(0, |n| 8 * n.nodes.capacity());
-        self.res.heap_bytes() + self.lattice.heap_bytes() + nodes
+        let info =
+            std::mem::size_of::<BlendInfo>() * (self.alone.capacity() + self.pairs.capacity());
+        self.res.heap_bytes() + self.lattice.heap_bytes() + nodes + info
     }
 
     /// ρ at vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame
@@ -152,9 +219,32 @@ impl Evaluator {
             out.fill(0.0);
             return;
         }
+        if n == 1 && self.on_line {
+            let l = wavelengths[0] as f64;
+            out[0] = if l.is_finite() {
+                let mut b = [0.0f64; SMALL_TERMS];
+                let b = &mut b[..self.res.spectrum.terms()];
+                self.res.spectrum.basis(l, b);
+                self.line_value(wi, wo, b).max(0.0) as f32
+            } else {
+                0.0
+            };
+            return;
+        }
         let q = self.query_frame(wi);
         let inc = self.incident(q.theta, q.phi, Some(q.wi));
         let wo = q.in_frame(wo);
+        if n == 1 && self.one_wavelength(&inc) {
+            let l = wavelengths[0] as f64;
+            out[0] = if l.is_finite() {
+                let mut b = [0.0f64; SMALL_TERMS];
+                self.res.spectrum.basis(l, &mut b[..inc.terms]);
+                self.value_at(&inc, None, wo, &b[..inc.terms]).max(0.0) as f32
+            } else {
+                0.0
+            };
+            return;
+        }
         if let Some(t) = self.factor_terms(q.wi, wo) {
             self.outgoing(&inc, wo, |c| {
                 for (o, &l) in out.iter_mut().zip(wavelengths) {
@@ -172,10 +262,10 @@ impl Evaluator {
     #[inline(always)]
     pub(crate) fn query_frame(&self, wi: [f64; 3]) -> QueryFrame {
         let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
-        // θ only places the query between stored incidences. Single precision matches what
-        // the f32 input vector can say about its own angle (≈1e-7 rad); the `libm` crate's
-        // atan2f inlines here and costs a fraction of the system library's f64 atan2.
-        let theta = (libm::atan2f(r as f32, wi[2] as f32) as f64).to_degrees();
+        // θ only places the query between stored incidences: an error below what the f32
+        // input vector can say about its own angle (≈1e-7 rad) is allowed ("Rounding"), and
+        // an inlined polynomial costs a fraction of a library atan2.
+        let theta = polar_deg(r, wi[2]);
         if self.res.isotropic {
             // Rotate into the stored frame (φi = 0) with the azimuth's cosine and sine, no trig.
             let (c, s) = if r > 0.0 {
@@ -272,7 +362,7 @@ impl Evaluator {
     /// The unit vector at polar angle `theta` (degrees; one of the stored range's ends) with the
     /// azimuth of the unit vector `v`; φ = 0 when `v` is the normal.
     #[inline(always)]
-    fn clamped(&self, v: [f64; 3], theta: f64) -> [f64; 3] {
+    pub(crate) fn clamped(&self, v: [f64; 3], theta: f64) -> [f64; 3] {
         let Some(&(_, s, c)) = self.theta_ends.iter().find(|e| e.0 == theta) else {
             return dir_from_deg(theta, deg_from_dir(v).1);
         };
@@ -289,36 +379,13 @@ impl Evaluator {
     #[inline(always)]
     pub(crate) fn incident(&self, theta: f64, phi: f64, wi: Option<[f64; 3]>) -> Incident {
         let (blend, wi, theta, phi) = self.resolve(theta, phi, wi);
-        let res = &self.res;
-        let recs = &blend.rec[..blend.n];
-        let r0 = &res.recs[recs[0]];
-        let (mut terms, mut level, mut nlobes) =
-            (r0.terms as usize, r0.level as usize, r0.nlobes as usize);
-        let mut same = true;
-        for &r in &recs[1..] {
-            let rec = &res.recs[r];
-            terms = terms.max(rec.terms as usize);
-            level = level.max(rec.level as usize);
-            nlobes = nlobes.max(rec.nlobes as usize);
-            same &= rec.kinds == r0.kinds;
-        }
-        let shared = if same {
-            ((1u16 << r0.nlobes) - 1) as u8
-        } else {
-            // Position li is shared when every blended record has a lobe there, of one kind.
-            let mut mask = 0u8;
-            for li in 0..nlobes {
-                let kind = (r0.kinds >> (4 * li)) & 15;
-                if kind != 0
-                    && recs
-                        .iter()
-                        .all(|&r| (res.recs[r].kinds >> (4 * li)) & 15 == kind)
-                {
-                    mask |= 1 << li;
-                }
-            }
-            mask
-        };
+        let info = self.blend_info(&blend);
+        let (terms, level, nlobes, shared) = (
+            info.terms as usize,
+            info.level as usize,
+            info.nlobes as usize,
+            info.shared,
+        );
         Incident {
             blend,
             wi,
@@ -329,6 +396,36 @@ impl Evaluator {
             nlobes,
             shared,
         }
+    }
+
+    /// [`BlendInfo`] of the records `blend` holds: precomputed for one record and for
+    /// neighbours on a θ line.
+    #[inline(always)]
+    pub(crate) fn blend_info(&self, blend: &Blend) -> BlendInfo {
+        let recs = &blend.rec[..blend.n];
+        match (recs, &self.lattice) {
+            (&[r], _) => self.alone[r],
+            (&[r, r1], Lattice::Theta(_)) if r1 == r + 1 => self.pairs[r],
+            _ => BlendInfo::of(&self.res, recs),
+        }
+    }
+
+    /// Whether one-wavelength queries take the line path (`super::line`).
+    pub(crate) fn on_line(&self) -> bool {
+        self.on_line
+    }
+
+    /// Σ_k B_k·Σ_j A_kj·y_j: a record's SH part at one wavelength (basis values `b`, SH values
+    /// `y` up to at least its level).
+    #[inline(always)]
+    pub(crate) fn sh_sum(&self, rec: &Rec, y: &[f64], b: &[f64]) -> f64 {
+        let (t, p) = (rec.terms as usize, sh_count(rec.level as usize));
+        let a = &self.res.vals[rec.sh as usize..rec.sh as usize + t * p];
+        let mut sum = 0.0;
+        for (row, &bk) in a.chunks_exact(p).zip(b) {
+            sum += bk * dot_f32(row, &y[..p]);
+        }
+        sum
     }
 
     /// Every shared lobe's blended shape into `shapes`, for reuse over a run of pairs.
@@ -565,6 +662,128 @@ impl Evaluator {
         }
     }
 
+    /// Whether a query at incidence `inc` takes [`Evaluator::value_at`] for one wavelength: no
+    /// factor model, and the small arrays suffice.
+    #[inline(always)]
+    pub(crate) fn one_wavelength(&self, inc: &Incident) -> bool {
+        self.res.factor.is_none() && inc.terms <= SMALL_TERMS && inc.level <= 6
+    }
+
+    /// ρ at one wavelength before the clamp, from that wavelength's basis values `b`
+    /// (B_0..B_{T*−1}): each record's terms weighted by w_r·B_k before its sums, so no
+    /// coefficient vector is formed (terms before records: "Rounding"). `shapes`, when given,
+    /// holds [`Evaluator::shapes`] of `inc`. The caller checked
+    /// [`Evaluator::one_wavelength`].
+    #[inline(always)]
+    pub(crate) fn value_at(
+        &self,
+        inc: &Incident,
+        shapes: Option<&Shapes>,
+        wo: [f64; 3],
+        b: &[f64],
+    ) -> f64 {
+        // The SH values on the stack, sized for the query: zeroing 49 for a level-0 record
+        // would cost more than its evaluation.
+        if inc.level <= 2 {
+            self.value_at_sized::<{ sh_count(2) }>(inc, shapes, wo, b)
+        } else {
+            self.value_at_sized::<SMALL_SH>(inc, shapes, wo, b)
+        }
+    }
+
+    #[inline(always)]
+    fn value_at_sized<const NSH: usize>(
+        &self,
+        inc: &Incident,
+        shapes: Option<&Shapes>,
+        wo: [f64; 3],
+        b: &[f64],
+    ) -> f64 {
+        let res = &self.res;
+        let recs = &inc.blend.rec[..inc.blend.n];
+        let ws = &inc.blend.w[..inc.blend.n];
+        let mut y = [0.0f64; NSH];
+        ShBasis::shared().eval_to_level(inc.level, wo, &mut y);
+        let mut acc = 0.0;
+        for (&r, &w) in recs.iter().zip(ws) {
+            let rec = &res.recs[r];
+            acc += w * if inc.level == 0 {
+                // Level 0 (records whose shape is all lobe): one SH function.
+                let t = rec.terms as usize;
+                dot_terms(&res.vals[rec.sh as usize..rec.sh as usize + t], &b[..t]) * y[0]
+            } else {
+                self.sh_sum(rec, &y, b)
+            };
+        }
+        let mut geometry = None;
+        for li in 0..inc.nlobes {
+            if inc.shared & (1 << li) != 0 {
+                let kind = res.lobe(&res.recs[recs[0]], li).kind;
+                let shape = &match shapes {
+                    Some(s) => s[li],
+                    None => self.shared_shape(inc, li),
+                };
+                acc += match kind {
+                    LobeKind::AngleGaussian => {
+                        let mut c = [0.0f64; SMALL_TERMS];
+                        let c = &mut c[..b.len()];
+                        self.add_gaussian(c, recs, ws, li, wo, shape.peak);
+                        c.iter().zip(b).map(|(c, b)| c * b).sum::<f64>()
+                    }
+                    _ => {
+                        let (v, nv) = self.values(kind, shape, inc.wi, wo, &mut geometry);
+                        self.amplitudes_at(recs, ws, li, &v[..nv], b)
+                    }
+                };
+            } else {
+                for (&r, &w) in recs.iter().zip(ws) {
+                    let rec = &res.recs[r];
+                    if li >= rec.nlobes as usize {
+                        continue;
+                    }
+                    let l = res.lobe(rec, li);
+                    if l.kind == LobeKind::AngleGaussian {
+                        let mut c = [0.0f64; SMALL_TERMS];
+                        let c = &mut c[..b.len()];
+                        self.add_gaussian(c, &[r], &[w], li, wo, rec.peak);
+                        acc += c.iter().zip(b).map(|(c, b)| c * b).sum::<f64>();
+                        continue;
+                    }
+                    let mut shape = LobeShape {
+                        peak: rec.peak,
+                        p: [0.0; 6],
+                    };
+                    for (p, &v) in shape.p.iter_mut().zip(res.params(rec, l)) {
+                        *p = v as f64;
+                    }
+                    let (v, nv) = self.values(l.kind, &shape, inc.wi, wo, &mut geometry);
+                    acc += self.amplitudes_at(&[r], &[w], li, &v[..nv], b);
+                }
+            }
+        }
+        acc
+    }
+
+    /// Σ_r w_r·Σ_j v\[j\]·Σ_k B_k·amplitude_r\[j·T_r + k\]: lobe `li`'s values `v` weighted by
+    /// every record's amplitudes at one wavelength (basis values `b`).
+    #[inline(always)]
+    fn amplitudes_at(&self, recs: &[usize], ws: &[f64], li: usize, v: &[f64], b: &[f64]) -> f64 {
+        let res = &self.res;
+        let mut acc = 0.0;
+        for (&r, &w) in recs.iter().zip(ws) {
+            let rec = &res.recs[r];
+            let t = rec.terms as usize;
+            let start = res.lobe(rec, li).amp as usize;
+            let amp = &res.vals[start..start + v.len() * t];
+            let mut sum = 0.0;
+            for (row, &vj) in amp.chunks_exact(t).zip(v) {
+                sum += vj * dot_terms(row, &b[..t]);
+            }
+            acc += w * sum;
+        }
+        acc
+    }
+
     /// The values a lobe of kind 2, 3 or 4 multiplies its amplitudes by at `wo`: four variants,
     /// or the cosine power (one).
     #[inline(always)]
@@ -685,6 +904,16 @@ impl Evaluator {
             *ck += acc;
         }
     }
+}
+
+/// Σ a\[k\]·b\[k\] in order: a record's few spectral terms at one wavelength.
+#[inline(always)]
+pub(crate) fn dot_terms(a: &[f32], b: &[f64]) -> f64 {
+    let mut s = 0.0;
+    for (x, y) in a.iter().zip(b) {
+        s += *x as f64 * y;
+    }
+    s
 }
 
 /// Σ a\[j\]·b\[j\] in four interleaved partial sums: one running sum would make every

@@ -9,6 +9,7 @@ pub mod color;
 pub mod decoder;
 mod evaluator;
 mod lattice;
+mod line;
 mod resident;
 pub mod sampling;
 

@@ -85,6 +85,13 @@ impl ShBasis {
         self.eval_to_level(self.level, d, out)
     }
 
+    /// Y_0^0, the one level-0 function (a constant), exactly as [`ShBasis::eval_to_level`]
+    /// gives it.
+    #[inline(always)]
+    pub fn constant(&self) -> f64 {
+        self.norm[0]
+    }
+
     /// [`ShBasis::eval`] for the functions up to `level` (≤ the basis's level) only.
     #[inline(always)]
     pub fn eval_to_level(&self, level: usize, d: [f64; 3], out: &mut [f64]) {

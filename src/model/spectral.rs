@@ -271,11 +271,15 @@ enum EvaluatorForm {
     },
 }
 
+/// The most nodes of a tabulated basis whose sums [`SpectrumEvaluator::eval_clamped`] keeps on
+/// the stack for many wavelengths.
+pub const NODE_SUMS: usize = 128;
+
 /// Where a wavelength falls in a tabulated basis: node i and the fraction f toward node i + 1.
 #[derive(Debug, Clone, Copy)]
-struct Cell {
-    i: usize,
-    f: f64,
+pub struct Cell {
+    pub i: usize,
+    pub f: f64,
 }
 
 impl SpectrumEvaluator {
@@ -374,7 +378,9 @@ impl SpectrumEvaluator {
             return Cell { i: w - 2, f: 1.0 };
         }
         if let Some(s) = inv_step {
-            let g = (((lambda - first) * s) as usize).min(w - 2);
+            // λ > the first node here: the position is positive and, as u32, converts in
+            // fewer instructions than as usize.
+            let g = (((lambda - first) * s) as u32 as usize).min(w - 2);
             let (lo, hi) = (nodes[g] as f64, nodes[g + 1] as f64);
             if lo <= lambda && lambda < hi {
                 return Cell {
@@ -391,8 +397,73 @@ impl SpectrumEvaluator {
         }
     }
 
+    /// Whether `n` wavelengths are evaluated from node sums: a tabulated basis of at most
+    /// [`NODE_SUMS`] nodes, at least 4 wavelengths and at least a quarter as many as nodes (the
+    /// sums cost W·K multiply-adds; each wavelength then costs one interpolation instead of K).
+    #[inline(always)]
+    pub fn uses_node_sums(&self, n: usize) -> bool {
+        matches!(&self.form, EvaluatorForm::Table { nodes, .. }
+            if nodes.len() <= NODE_SUMS && n >= 4 && 4 * n >= nodes.len())
+    }
+
+    /// S_w = Σ_k c\[k\]·v_k\[w\] for every node w of a tabulated basis, into the front of
+    /// `sums` (returned); empty for the analytic bases or more than [`NODE_SUMS`] nodes.
+    #[inline(always)]
+    pub fn node_sums<'a>(&self, c: &[f64], sums: &'a mut [f64; NODE_SUMS]) -> &'a [f64] {
+        let EvaluatorForm::Table { nodes, values, .. } = &self.form else {
+            return &sums[..0];
+        };
+        let (w, k) = (nodes.len(), self.terms);
+        if w > NODE_SUMS {
+            return &sums[..0];
+        }
+        let c = &c[..c.len().min(k)];
+        let sums = &mut sums[..w];
+        // A few terms (the usual case) unrolled: a loop's set-up per node would cost more.
+        match c.len() {
+            1 => node_sums_n::<1>(c, values, k, sums),
+            2 => node_sums_n::<2>(c, values, k, sums),
+            3 => node_sums_n::<3>(c, values, k, sums),
+            4 => node_sums_n::<4>(c, values, k, sums),
+            _ => {
+                for (s, row) in sums.iter_mut().zip(values.chunks_exact(k)) {
+                    let mut sum = 0.0;
+                    for (a, &v) in c.iter().zip(row) {
+                        sum += a * v as f64;
+                    }
+                    *s = sum;
+                }
+            }
+        }
+        sums
+    }
+
+    /// Where λ (not NaN) falls among a tabulated basis's nodes (node 0 for an analytic basis).
+    #[inline(always)]
+    pub fn cell_of(&self, lambda: f64) -> Cell {
+        match &self.form {
+            EvaluatorForm::Table {
+                nodes, inv_step, ..
+            } => Self::cell(nodes, *inv_step, lambda),
+            _ => Cell { i: 0, f: 0.0 },
+        }
+    }
+
+    /// Σ_k c_k·B_k(λ) from the node sums of c and λ's cell: S_i + f·(S_{i+1} − S_i).
+    #[inline(always)]
+    pub fn from_node_sums(sums: &[f64], cell: Cell) -> f64 {
+        let Some(&s0) = sums.get(cell.i) else {
+            return 0.0;
+        };
+        match sums.get(cell.i + 1) {
+            Some(&s1) => s0 + cell.f * (s1 - s0),
+            None => s0,
+        }
+    }
+
     /// B_0..B_{n−1}(λ) into `out[..n]`, n = `out.len()` ≤ K; λ clamped as in
     /// [`SpectralSpace::eval`] and not NaN.
+    #[inline(always)]
     pub fn basis(&self, lambda: f64, out: &mut [f64]) {
         let out_len = out.len().min(self.terms);
         let out = &mut out[..out_len];
@@ -436,9 +507,18 @@ impl SpectrumEvaluator {
                     return;
                 }
                 let (r0, r1) = (&values[i * k..i * k + k], &values[(i + 1) * k..(i + 2) * k]);
-                for ((o, &v0), &v1) in out.iter_mut().zip(r0).zip(r1) {
-                    let (v0, v1) = (v0 as f64, v1 as f64);
-                    *o = v0 + f * (v1 - v0);
+                // A few terms (the usual case) unrolled: a loop's set-up would cost more.
+                match out.len() {
+                    1 => lerp_rows::<1>(r0, r1, f, out),
+                    2 => lerp_rows::<2>(r0, r1, f, out),
+                    3 => lerp_rows::<3>(r0, r1, f, out),
+                    4 => lerp_rows::<4>(r0, r1, f, out),
+                    _ => {
+                        for ((o, &v0), &v1) in out.iter_mut().zip(r0).zip(r1) {
+                            let (v0, v1) = (v0 as f64, v1 as f64);
+                            *o = v0 + f * (v1 - v0);
+                        }
+                    }
                 }
             }
         }
@@ -512,8 +592,32 @@ impl SpectrumEvaluator {
     /// max(0, Σ_k c_k·B_k(λ)) for every wavelength into `out` (`min` of the two lengths), 0 for
     /// a wavelength that is not finite: the last step of evaluation
     /// (`spec/EVALUATION.md`, "Reconstruction", step 5).
+    ///
+    /// Many wavelengths from a tabulated basis ([`SpectrumEvaluator::uses_node_sums`]) take
+    /// the node sums S_w = Σ_k c_k·v_k\[w\] once and interpolate them per wavelength, which is
+    /// Σ_k c_k·B_k(λ) rearranged (equal to rounding, `spec/EVALUATION.md` "Rounding"); the
+    /// batch entry point does the same, so its values stay `eval`'s bit for bit.
     #[inline(always)]
     pub fn eval_clamped(&self, c: &[f64], wavelengths: &[f32], out: &mut [f32]) {
+        if self.uses_node_sums(wavelengths.len()) {
+            let mut sums = [0.0f64; NODE_SUMS];
+            let sums = self.node_sums(c, &mut sums);
+            if let EvaluatorForm::Table {
+                nodes, inv_step, ..
+            } = &self.form
+            {
+                for (o, &l) in out.iter_mut().zip(wavelengths) {
+                    let l = l as f64;
+                    *o = if l.is_finite() {
+                        let cell = Self::cell(nodes, *inv_step, l);
+                        Self::from_node_sums(sums, cell).max(0.0) as f32
+                    } else {
+                        0.0
+                    };
+                }
+            }
+            return;
+        }
         for (o, &l) in out.iter_mut().zip(wavelengths) {
             let l = l as f64;
             *o = if l.is_finite() {
@@ -522,6 +626,41 @@ impl SpectrumEvaluator {
                 0.0
             };
         }
+    }
+}
+
+/// sums\[w\] = Σ_{k<N} c\[k\]·values\[w·stride + k\] (`c` holds N, `values` a row of
+/// `stride` ≥ N per node).
+#[inline(always)]
+fn node_sums_n<const N: usize>(c: &[f64], values: &[f32], stride: usize, sums: &mut [f64]) {
+    let Some(c) = c.first_chunk::<N>() else {
+        return;
+    };
+    for (s, row) in sums.iter_mut().zip(values.chunks_exact(stride)) {
+        let Some(row) = row.first_chunk::<N>() else {
+            return;
+        };
+        let mut sum = 0.0;
+        for k in 0..N {
+            sum += c[k] * row[k] as f64;
+        }
+        *s = sum;
+    }
+}
+
+/// out\[k\] = r0\[k\] + f·(r1\[k\] − r0\[k\]) for k < N (every slice holds at least N).
+#[inline(always)]
+fn lerp_rows<const N: usize>(r0: &[f32], r1: &[f32], f: f64, out: &mut [f64]) {
+    let (Some(r0), Some(r1), Some(out)) = (
+        r0.first_chunk::<N>(),
+        r1.first_chunk::<N>(),
+        out.first_chunk_mut::<N>(),
+    ) else {
+        return;
+    };
+    for k in 0..N {
+        let (v0, v1) = (r0[k] as f64, r1[k] as f64);
+        out[k] = v0 + f * (v1 - v0);
     }
 }
 

@@ -1,0 +1,270 @@
+//! One wavelength on a θ line: the path [`Evaluator::eval`] and the batch take for the files the
+//! encoder writes by default — isotropic, no factor model, at most two lobes per record, each a
+//! cosine power or a microfacet lobe (kinds 2–4), SH level ≤ 6, ≤ 16 spectral terms.
+//!
+//! It computes what [`Evaluator::value_at`] computes, operation for operation in the same
+//! order (the two agree bit for bit, `tests/batch.rs`), with the generality those files do not
+//! need taken out: a query blends one record or two neighbours, whose lobes are read by
+//! position straight from the resident arrays, with no shape table, no Gaussian and no axis.
+//! A renderer's query at one wavelength is mostly this bookkeeping (a level-0 record is a
+//! handful of multiply-adds), so its cost is what decides the decoder against a table.
+
+use super::evaluator::{dot_terms, Evaluator, SMALL_SH, SMALL_TERMS};
+use super::lattice::{Blend, Lattice};
+use crate::model::angles::{dot, polar_deg};
+use crate::model::lobes::MicrofacetGeometry;
+use crate::model::material::LobeKind;
+use crate::model::sh::{sh_count, ShBasis};
+
+/// The most lobes a record on the line path holds.
+pub(crate) const LINE_LOBES: usize = 2;
+
+impl Evaluator {
+    /// ρ at one wavelength before the clamp, for unit vectors `wi`, `wo` (local frame, z ≥ 0)
+    /// and basis values `b` (B_0..B_{T−1} at the wavelength, T the file's terms); the file is
+    /// on the line path ([`Evaluator::on_line`]).
+    #[inline(always)]
+    pub(crate) fn line_value(&self, wi: [f64; 3], wo: [f64; 3], b: &[f64]) -> f64 {
+        let Lattice::Theta(axis) = &self.lattice else {
+            return 0.0; // not on a θ line: `on_line` is false
+        };
+        // The query frame (`Evaluator::query_frame`, isotropic): rotated about z so that its
+        // azimuth is 0, by the azimuth's cosine and sine.
+        let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
+        let theta = polar_deg(r, wi[2]);
+        let (c, s) = if r > 0.0 {
+            let inv = 1.0 / r;
+            (wi[0] * inv, wi[1] * inv)
+        } else {
+            (1.0, 0.0)
+        };
+        let wo = [c * wo[0] + s * wo[1], -s * wo[0] + c * wo[1], wo[2]];
+        // The records to blend (`Lattice::blend`, θ line) and the evaluation incidence
+        // (`Evaluator::resolve`): θ clamped to the stored range, the incident vector with it.
+        let (i, t) = axis.bracket(theta);
+        let blend = if axis.xs.len() == 1 || t <= 0.0 {
+            Blend::one(i)
+        } else if 1.0 - t <= 0.0 {
+            Blend::one(i + 1)
+        } else {
+            Blend {
+                n: 2,
+                rec: [i, i + 1, 0, 0],
+                w: [1.0 - t, t, 0.0, 0.0],
+            }
+        };
+        let (first, last) = (axis.xs[0], axis.xs[axis.xs.len() - 1]);
+        let (theta, wi) = if theta < first {
+            (first, self.clamped([r, 0.0, wi[2]], first))
+        } else if theta > last {
+            (last, self.clamped([r, 0.0, wi[2]], last))
+        } else {
+            (theta, [r, 0.0, wi[2]])
+        };
+        let phi = 0.0;
+        let res = &self.res;
+        let n = blend.n;
+        let info = if n == 1 {
+            self.alone[blend.rec[0]]
+        } else {
+            self.pairs[blend.rec[0]]
+        };
+        let level = info.level as usize;
+        let mut acc = if level == 0 {
+            // Level 0 (records whose shape is all lobe): one SH function, a constant.
+            let y0 = ShBasis::shared().constant();
+            let mut acc = 0.0;
+            for i in 0..n {
+                let rec = &res.recs[blend.rec[i]];
+                let t = rec.terms as usize;
+                let a = &res.vals[rec.sh as usize..rec.sh as usize + t];
+                acc += blend.w[i] * (dot_terms(a, &b[..t]) * y0);
+            }
+            acc
+        } else {
+            let mut y = [0.0f64; SMALL_SH];
+            ShBasis::shared().eval_to_level(level, wo, &mut y);
+            let mut acc = 0.0;
+            for i in 0..n {
+                let rec = &res.recs[blend.rec[i]];
+                acc += blend.w[i] * self.sh_sum(rec, &y, b);
+            }
+            acc
+        };
+        let mut geometry = None;
+        for li in 0..info.nlobes as usize {
+            if info.shared & (1 << li) != 0 {
+                let kind = res.lobe(&res.recs[blend.rec[0]], li).kind;
+                let v = self.line_shared(&blend, li, kind, (theta, phi), wi, wo, &mut geometry);
+                acc += self.line_amplitudes(&blend, li, v, b);
+                continue;
+            }
+            for i in 0..n {
+                let r = blend.rec[i];
+                let rec = &res.recs[r];
+                if li >= rec.nlobes as usize {
+                    continue;
+                }
+                let l = res.lobe(rec, li);
+                let p = &res.params[l.par as usize..];
+                let v = match l.kind {
+                    LobeKind::CosinePower => {
+                        [cosine_power(p[0] as f64, wo, rec.peak), 0.0, 0.0, 0.0]
+                    }
+                    _ => microfacet(
+                        &mut geometry,
+                        wi,
+                        wo,
+                        [p[0] as f64, p[1] as f64, p[2] as f64],
+                        l.kind == LobeKind::MicrofacetSin2,
+                    ),
+                };
+                let one = Blend {
+                    n: 1,
+                    rec: [r, 0, 0, 0],
+                    w: [blend.w[i], 0.0, 0.0, 0.0],
+                };
+                acc += self.line_amplitudes(&one, li, v, b);
+            }
+        }
+        acc
+    }
+
+    /// The values of the lobe at position `li`, shared by the blended records, at `wo`: its
+    /// shape blended as [`Evaluator::shared_shape`] blends it (exponent, b and c geometrically,
+    /// a linearly, b, c and a rounded to f32; the peak by "Blended peak direction").
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn line_shared(
+        &self,
+        blend: &Blend,
+        li: usize,
+        kind: LobeKind,
+        incidence: (f64, f64),
+        wi: [f64; 3],
+        wo: [f64; 3],
+        geometry: &mut Option<Option<MicrofacetGeometry>>,
+    ) -> [f64; 4] {
+        let res = &self.res;
+        let n = blend.n;
+        let par = |i: usize| res.lobe(&res.recs[blend.rec[i]], li).par as usize;
+        let geo = |j: usize| -> f64 {
+            if n == 1 {
+                return res.params[par(0) + j] as f64;
+            }
+            let mut s = 0.0;
+            for i in 0..n {
+                s += blend.w[i] * res.ln_params[par(i) + j];
+            }
+            s.exp()
+        };
+        let r32 = |v: f64| v as f32 as f64;
+        match kind {
+            LobeKind::CosinePower => {
+                // "Blended peak direction", isotropic: the normalised weighted mean of the
+                // records' peaks (`Evaluator::blended_peak` when that vanishes).
+                let peak = if n == 1 {
+                    res.recs[blend.rec[0]].peak
+                } else {
+                    let (p0, p1) = (res.recs[blend.rec[0]].peak, res.recs[blend.rec[1]].peak);
+                    let (w0, w1) = (blend.w[0], blend.w[1]);
+                    let m = [
+                        w0 * p0[0] + w1 * p1[0],
+                        w0 * p0[1] + w1 * p1[1],
+                        w0 * p0[2] + w1 * p1[2],
+                    ];
+                    let n2 = dot(m, m);
+                    if n2 > 0.0 && n2.is_finite() {
+                        let s = 1.0 / n2.sqrt();
+                        [m[0] * s, m[1] * s, m[2] * s]
+                    } else {
+                        self.blended_peak(&blend.rec[..n], &blend.w[..n], incidence)
+                    }
+                };
+                [cosine_power(geo(0), wo, peak), 0.0, 0.0, 0.0]
+            }
+            _ => {
+                let a = if n == 1 {
+                    res.params[par(0) + 2] as f64
+                } else {
+                    let (mut wa, mut wsum) = (0.0, 0.0);
+                    for i in 0..n {
+                        wa += blend.w[i] * res.params[par(i) + 2] as f64;
+                        wsum += blend.w[i];
+                    }
+                    wa / wsum
+                };
+                let p = [r32(geo(0)), r32(geo(1)), r32(a)];
+                microfacet(geometry, wi, wo, p, kind == LobeKind::MicrofacetSin2)
+            }
+        }
+    }
+
+    /// Σ_i w_i·Σ_j v\[j\]·Σ_k B_k·amplitude\[j·T + k\] over the blended records' lobe `li` (one
+    /// value for a cosine power, four for a microfacet lobe).
+    #[inline(always)]
+    fn line_amplitudes(&self, blend: &Blend, li: usize, v: [f64; 4], b: &[f64]) -> f64 {
+        let res = &self.res;
+        let mut acc = 0.0;
+        for i in 0..blend.n {
+            let rec = &res.recs[blend.rec[i]];
+            let l = res.lobe(rec, li);
+            let t = rec.terms as usize;
+            let nv = if l.kind == LobeKind::CosinePower {
+                1
+            } else {
+                4
+            };
+            let amp = &res.vals[l.amp as usize..l.amp as usize + nv * t];
+            let mut sum = 0.0;
+            for (j, &vj) in v.iter().enumerate().take(nv) {
+                sum += vj * dot_terms(&amp[j * t..j * t + t], &b[..t]);
+            }
+            acc += blend.w[i] * sum;
+        }
+        acc
+    }
+}
+
+/// Whether a record's lobes fit the line path: at most [`LINE_LOBES`], kinds 2–4.
+pub(crate) fn line_lobes(kinds: &[LobeKind]) -> bool {
+    kinds.len() <= LINE_LOBES
+        && kinds.iter().all(|k| {
+            matches!(
+                k,
+                LobeKind::CosinePower | LobeKind::Microfacet | LobeKind::MicrofacetSin2
+            )
+        })
+}
+
+/// The SH scratch size and term count the line path needs at most.
+pub(crate) fn line_sizes(level: usize, terms: usize) -> bool {
+    sh_count(level) <= SMALL_SH && terms <= SMALL_TERMS
+}
+
+/// g^n for g = wo·peak capped at 1, as exp(n·ln g); 0 where g ≤ 0 (no ln 0 trap).
+#[inline(always)]
+pub(crate) fn cosine_power(n: f64, wo: [f64; 3], peak: [f64; 3]) -> f64 {
+    let g = dot(wo, peak).min(1.0);
+    if g > 0.0 {
+        (n * g.ln()).exp()
+    } else {
+        0.0
+    }
+}
+
+/// The four microfacet variants for parameters `p` = [b, c, a], the geometry computed once per
+/// query (None inside: wi = −wo, every variant 0).
+#[inline(always)]
+pub(crate) fn microfacet(
+    geometry: &mut Option<Option<MicrofacetGeometry>>,
+    wi: [f64; 3],
+    wo: [f64; 3],
+    p: [f64; 3],
+    sin2: bool,
+) -> [f64; 4] {
+    match *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo)) {
+        Some(g) => g.variants_f64(p, sin2),
+        None => [0.0; 4],
+    }
+}
