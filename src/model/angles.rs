@@ -136,6 +136,34 @@ pub fn mean_axis_deg(axes: impl IntoIterator<Item = (f64, f64)>) -> Option<f64> 
 mod tests {
     use super::*;
 
+    /// The decoder's polar angle against atan2: within 1.4·10⁻⁸ rad and 1.8·10⁻⁸ relative over
+    /// the quarter circle (the bound `spec/EVALUATION.md` "Rounding" states), exact at its ends.
+    #[test]
+    fn polar_deg_is_atan2_within_its_stated_error() {
+        assert_eq!(polar_deg(0.0, 0.0), 0.0);
+        assert_eq!(polar_deg(0.0, 1.0), 0.0);
+        assert_eq!(polar_deg(1.0, 0.0), 90.0);
+        assert_eq!(polar_deg(0.0, 1e-300), 0.0);
+        let (mut worst_abs, mut worst_rel) = (0.0f64, 0.0f64);
+        for i in 0..=200_000 {
+            let t = std::f64::consts::FRAC_PI_2 * i as f64 / 200_000.0;
+            for scale in [1.0, 1e-3, 7.5e5] {
+                let (r, z) = (scale * t.sin(), scale * t.cos());
+                let want = r.atan2(z);
+                let got = polar_deg(r, z).to_radians();
+                worst_abs = worst_abs.max((got - want).abs());
+                if want > 0.0 {
+                    worst_rel = worst_rel.max((got - want).abs() / want);
+                }
+            }
+        }
+        assert!(worst_abs < 1.4e-8, "{worst_abs}");
+        assert!(worst_rel < 1.8e-8, "{worst_rel}");
+        // Tiny angles keep their relative precision.
+        let got = polar_deg(1e-9, 1.0).to_radians();
+        assert!((got - 1e-9).abs() < 1e-24, "{got}");
+    }
+
     #[test]
     fn round_trip_and_poles() {
         for &(t, p) in &[
