@@ -82,14 +82,13 @@ impl Evaluator {
             }
             acc
         } else {
-            let mut y = [0.0f64; SMALL_SH];
-            ShBasis::shared().eval_to_level(level, wo, &mut y);
-            let mut acc = 0.0;
-            for i in 0..n {
-                let rec = &res.recs[blend.rec[i]];
-                acc += blend.w[i] * self.sh_sum(rec, &y, b);
+            // The SH values on the stack, sized for the level (zeroing 49 costs as much as a
+            // level-2 record's sums).
+            match level {
+                1 | 2 => self.line_sh::<{ sh_count(2) }>(&blend, level, wo, b),
+                3 | 4 => self.line_sh::<{ sh_count(4) }>(&blend, level, wo, b),
+                _ => self.line_sh::<SMALL_SH>(&blend, level, wo, b),
             }
-            acc
         };
         let mut geometry = None;
         for li in 0..info.nlobes as usize {
@@ -126,6 +125,26 @@ impl Evaluator {
                 };
                 acc += self.line_amplitudes(&one, li, v, b);
             }
+        }
+        acc
+    }
+
+    /// Σ_i w_i·Σ_k B_k·Σ_j A_kj·y_j over the blended records, y the SH values at `wo` up to
+    /// `level` (≤ the level of NSH values).
+    #[inline(always)]
+    fn line_sh<const NSH: usize>(
+        &self,
+        blend: &Blend,
+        level: usize,
+        wo: [f64; 3],
+        b: &[f64],
+    ) -> f64 {
+        let mut y = [0.0f64; NSH];
+        ShBasis::shared().eval_to_level(level, wo, &mut y);
+        let mut acc = 0.0;
+        for i in 0..blend.n {
+            let rec = &self.res.recs[blend.rec[i]];
+            acc += blend.w[i] * self.sh_sum(rec, &y, b);
         }
         acc
     }
@@ -216,10 +235,20 @@ impl Evaluator {
                 4
             };
             let amp = &res.vals[l.amp as usize..l.amp as usize + nv * t];
-            let mut sum = 0.0;
-            for (j, &vj) in v.iter().enumerate().take(nv) {
-                sum += vj * dot_terms(&amp[j * t..j * t + t], &b[..t]);
-            }
+            // A few terms (the usual case) unrolled, chosen once per record.
+            let sum = match t {
+                1 => variant_sums::<1>(amp, &v[..nv], b),
+                2 => variant_sums::<2>(amp, &v[..nv], b),
+                3 => variant_sums::<3>(amp, &v[..nv], b),
+                4 => variant_sums::<4>(amp, &v[..nv], b),
+                _ => {
+                    let mut sum = 0.0;
+                    for (j, &vj) in v.iter().enumerate().take(nv) {
+                        sum += vj * dot_terms(&amp[j * t..j * t + t], &b[..t]);
+                    }
+                    sum
+                }
+            };
             acc += blend.w[i] * sum;
         }
         acc
@@ -267,4 +296,25 @@ pub(crate) fn microfacet(
         Some(g) => g.variants_f64(p, sin2),
         None => [0.0; 4],
     }
+}
+
+/// Σ_j v\[j\]·Σ_{k<T} amp\[j·T + k\]·b\[k\]: a lobe's variants (`v`) against its amplitudes at
+/// one wavelength (basis values `b`), for a record of T terms.
+#[inline(always)]
+fn variant_sums<const T: usize>(amp: &[f32], v: &[f64], b: &[f64]) -> f64 {
+    let Some(b) = b.first_chunk::<T>() else {
+        return 0.0;
+    };
+    let mut sum = 0.0;
+    for (row, &vj) in amp.chunks_exact(T).zip(v) {
+        let Some(row) = row.first_chunk::<T>() else {
+            break;
+        };
+        let mut d = 0.0;
+        for k in 0..T {
+            d += row[k] as f64 * b[k];
+        }
+        sum += vj * d;
+    }
+    sum
 }

@@ -98,6 +98,18 @@ impl ShBasis {
         let level = level.min(self.level);
         let [x, y, z] = d;
         let out = &mut out[..sh_count(level)];
+        let (norm, ratio) = (&self.norm[..], &self.ratio[..]);
+        // Y_l^{±m} from Q_l^m: K·Q for m = 0, K·Q·Re, K·Q·Im of (x + iy)^m otherwise.
+        let put =
+            |out: &mut [f64], m: usize, tri: usize, centre: usize, q: f64, cm: f64, sm: f64| {
+                let k = norm[tri];
+                if m == 0 {
+                    out[centre] = k * q;
+                } else {
+                    out[centre + m] = k * q * cm;
+                    out[centre - m] = k * q * sm;
+                }
+            };
         // (x + iy)^m, advanced one m at a time.
         let (mut cm, mut sm) = (1.0f64, 0.0f64);
         // Q_m^m = (2m−1)!!, the polynomial part of P_m^m / sin^m θ.
@@ -109,19 +121,61 @@ impl ShBasis {
                 sm = s;
                 qmm *= (2 * m - 1) as f64;
             }
-            let mut q_prev = 0.0f64; // Q_{l-2}^m
-            let mut q = qmm; // Q_{l-1}^m, then Q_l^m
+            // Indices advanced by addition: l(l+1)/2 + m into the tables, l(l+1) into `out`.
+            let (mut tri, mut centre) = (m * (m + 1) / 2 + m, m * (m + 1));
+            put(out, m, tri, centre, qmm, cm, sm);
+            if m == level {
+                break;
+            }
+            // Q_{m+1}^m = (2m+1)·z·Q_m^m, then the upward recurrence in l.
+            let mut q_prev = qmm;
+            let mut q = (2 * m + 1) as f64 * z * qmm;
+            tri += m + 1;
+            centre += 2 * (m + 1);
+            put(out, m, tri, centre, q, cm, sm);
+            for l in m + 2..=level {
+                tri += l;
+                centre += 2 * l;
+                let [a, b] = ratio[tri];
+                let next = a * z * q - b * q_prev;
+                q_prev = q;
+                q = next;
+                put(out, m, tri, centre, q, cm, sm);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The recurrence with its indices computed from (l, m) at every step, as first written:
+    /// `eval_to_level` advances them by addition and must give the same bits.
+    fn eval_indexed(b: &ShBasis, level: usize, d: [f64; 3], out: &mut [f64]) {
+        let [x, y, z] = d;
+        let (mut cm, mut sm) = (1.0f64, 0.0f64);
+        let mut qmm = 1.0f64;
+        for m in 0..=level {
+            if m > 0 {
+                let (c, s) = (cm * x - sm * y, cm * y + sm * x);
+                cm = c;
+                sm = s;
+                qmm *= (2 * m - 1) as f64;
+            }
+            let mut q_prev = 0.0f64;
+            let mut q = qmm;
             for l in m..=level {
                 if l == m + 1 {
                     q_prev = q;
                     q = (2 * m + 1) as f64 * z * qmm;
                 } else if l > m + 1 {
-                    let [a, b] = self.ratio[l * (l + 1) / 2 + m];
-                    let next = a * z * q - b * q_prev;
+                    let [a, bb] = b.ratio[l * (l + 1) / 2 + m];
+                    let next = a * z * q - bb * q_prev;
                     q_prev = q;
                     q = next;
                 }
-                let k = self.norm[l * (l + 1) / 2 + m];
+                let k = b.norm[l * (l + 1) / 2 + m];
                 let centre = l * (l + 1);
                 if m == 0 {
                     out[centre] = k * q;
@@ -132,11 +186,29 @@ impl ShBasis {
             }
         }
     }
-}
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+    #[test]
+    fn eval_to_level_is_the_indexed_recurrence_bit_for_bit() {
+        let b = ShBasis::shared();
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..2000 {
+            let d = dir_from_deg(90.0 * next(), 360.0 * next());
+            for level in 0..=MAX_SH_LEVEL {
+                let n = sh_count(level);
+                let (mut got, mut want) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+                b.eval_to_level(level, d, &mut got);
+                eval_indexed(b, level, d, &mut want);
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&got), bits(&want), "level {level} at {d:?}");
+            }
+        }
+    }
     use crate::model::angles::dir_from_deg;
     use std::f64::consts::PI;
 
