@@ -171,15 +171,18 @@ fn the_resident_form_gives_back_the_material_and_the_bytes() {
     }
 }
 
-/// `eval` takes two shortcuts — one wavelength on a θ line (`src/decode/line.rs`: terms before
-/// records, the lobes read by position) and many wavelengths of a tabulated basis from node sums
-/// (`SpectrumEvaluator::eval_clamped`) — that must give its general path's values to rounding:
-/// each is checked against the same query with the wavelength given twice, which takes neither.
+/// `eval` takes shortcuts — a θ line's records read by position without the general machinery
+/// (`src/decode/line.rs`; one wavelength with terms before records), many wavelengths of a
+/// tabulated basis from node sums (`SpectrumEvaluator::eval_clamped`), θ from a polynomial —
+/// that must give the general path's values to rounding: each is checked against `eval_deg`
+/// (double precision angles, the general path) at the same directions, within a few f32
+/// roundings (2·10⁻⁷ relative, plus 10⁻⁹ of the material's largest value).
 /// On every golden file, and on the benchmark's Phong and GGX materials (θ lines, one lobe).
 #[test]
-fn evals_shortcuts_give_its_general_paths_values() {
+fn evals_shortcuts_give_the_general_paths_values() {
     use sbrdf::encode::encoder::{encode, EncodeOptions};
     use sbrdf::io::synth::{paper_grid, sample_material, Ggx, Phong};
+    use sbrdf::model::angles::{deg_from_dir, polar_deg};
     let wl: Vec<f64> = (0..31).map(|i| 400.0 + 10.0 * i as f64).collect();
     let grid = paper_grid(10.0, 10.0);
     let phong = Phong::colorchecker("green", "white", (1.0, 15.0, 50.0), &wl).unwrap();
@@ -203,42 +206,70 @@ fn evals_shortcuts_give_its_general_paths_values() {
         let bytes = write_material(&enc.material).unwrap();
         decoders.push((name.to_string(), Decoder::from_bytes(&bytes).unwrap()));
     }
+    // Directions above the horizon, as (f32 vector, its angles in degrees).
     let (wi, wo) = pairs();
+    // θ as the decoder computes it (`polar_deg`, within 1.4·10⁻⁸ rad of atan2: a steep
+    // material's value moves by up to ~10⁻⁴ relative with it, which "Rounding" allows), so that
+    // what differs is the paths alone.
+    // (The outgoing direction's θ is the vector's own: the decoder takes the vector.)
+    let angles = |v: [f32; 3], incident: bool| {
+        let d = v.map(|x| x as f64);
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        (n.is_finite() && n > 0.0 && d[2] >= 0.0).then(|| {
+            let s = 1.0 / n;
+            let u = [d[0] * s, d[1] * s, d[2] * s];
+            let (theta, phi) = deg_from_dir(u);
+            match incident {
+                true => (polar_deg((u[0] * u[0] + u[1] * u[1]).sqrt(), u[2]), phi),
+                false => (theta, phi),
+            }
+        })
+    };
+    let good: Vec<_> = wi
+        .iter()
+        .zip(&wo)
+        .filter_map(|(&a, &b)| Some((a, b, angles(a, true)?, angles(b, false)?)))
+        .collect();
+    assert!(good.len() > 350);
     for (name, dec) in &decoders {
         let w = dec.material().wavelengths.clone();
         let (lo, hi) = (w[0], w[w.len() - 1]);
-        let ones = [lo, 0.37 * lo + 0.63 * hi, hi, lo - 20.0];
-        // The general path: one wavelength given twice.
-        let general = |a, b, l: f32| {
-            let mut two = [f32::NAN; 2];
-            dec.eval(a, b, &[l, l], &mut two);
-            assert_eq!(two[0].to_bits(), two[1].to_bits());
-            two[0]
+        let general = |ia, oa, l: f32| {
+            let mut v = [f64::NAN];
+            dec.eval_deg(ia, oa, &[l as f64], &mut v);
+            v[0]
         };
-        let mut scale = 0.0f32;
-        for (&a, &b) in wi.iter().zip(&wo) {
-            for &l in &ones {
-                scale = scale.max(general(a, b, l));
-            }
+        let mut scale = 0.0f64;
+        for &(_, _, ia, oa) in &good {
+            scale = scale.max(general(ia, oa, 0.5 * (lo + hi)));
         }
-        let close = |got: f32, want: f32, what: &str| {
-            let tol = 4.0 * f32::EPSILON * want.abs() + 1e-9 * scale;
+        let mut checked = 0;
+        let mut close = |got: f32, want: f64, what: &str| {
+            let tol = 2e-7 * want.abs() + 1e-9 * scale;
             assert!(
-                (got - want).abs() <= tol,
+                (got as f64 - want).abs() <= tol,
                 "{name}: {what}: {got} against the general path's {want}"
             );
+            checked += 1;
         };
-        for (&a, &b) in wi.iter().zip(&wo) {
-            for &l in &ones {
+        for &(a, b, ia, oa) in &good {
+            for l in [lo, 0.37 * lo + 0.63 * hi, hi, lo - 20.0] {
                 let mut one = [f32::NAN];
                 dec.eval(a, b, &[l], &mut one);
-                close(one[0], general(a, b, l), &format!("{l} nm alone"));
+                close(one[0], general(ia, oa, l), &format!("{l} nm alone"));
             }
-            let mut all = vec![f32::NAN; w.len()];
-            dec.eval(a, b, &w, &mut all);
-            for (&got, &l) in all.iter().zip(&w) {
-                close(got, general(a, b, l), &format!("{l} nm of {}", w.len()));
+            for list in [&w[..], &[lo, 0.5 * (lo + hi), hi][..]] {
+                let mut all = vec![f32::NAN; list.len()];
+                dec.eval(a, b, list, &mut all);
+                for (&got, &l) in all.iter().zip(list) {
+                    close(
+                        got,
+                        general(ia, oa, l),
+                        &format!("{l} nm of {}", list.len()),
+                    );
+                }
             }
         }
+        assert!(checked > 1000, "{name}: {checked} values");
     }
 }

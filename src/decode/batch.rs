@@ -6,7 +6,7 @@
 //! [`Decoder::eval`](crate::Decoder::eval)'s: the same operations in the same order, through
 //! the same shortcuts (one wavelength on a θ line, node sums for many wavelengths).
 
-use super::evaluator::{Evaluator, Incident, LobeShape, Shapes};
+use super::evaluator::{Evaluator, Incident, LobeShape, Shapes, SMALL_TERMS};
 use super::lattice::{unit, QueryFrame};
 use crate::model::spectral::{Cell, SpectrumEvaluator, NODE_SUMS};
 
@@ -70,11 +70,11 @@ pub(crate) fn eval_batch(
     } else {
         &cells[..0]
     };
-    if m == 1 && ev.on_line() {
-        // One wavelength on a θ line: each pair as `eval` computes it (the line path's
-        // incident side costs less than keeping it).
-        for (i, o) in out[..n].iter_mut().enumerate() {
-            *o = line(ev, wi(i), wo(i), basis);
+    if ev.on_line() {
+        // A θ line: each pair as `eval` computes it (the line path's incident side costs less
+        // than keeping it).
+        for (i, row) in out[..n * m].chunks_exact_mut(m).enumerate() {
+            line(ev, wi(i), wo(i), basis, cells, k, wavelengths, row);
         }
         return;
     }
@@ -152,17 +152,40 @@ fn single(
     });
 }
 
-/// ρ at the batch's one wavelength (basis values `basis`, NaN for a wavelength that is not
-/// finite) as `eval` computes it on the line path.
+/// One pair as `eval` computes it on the line path: one wavelength from its basis values
+/// (NaN for a wavelength that is not finite), several from the coefficients.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn line(ev: &Evaluator, a: [f32; 3], b: [f32; 3], basis: &[f64]) -> f32 {
+fn line(
+    ev: &Evaluator,
+    a: [f32; 3],
+    b: [f32; 3],
+    basis: &[f64],
+    cells: &[Cell],
+    k: usize,
+    wavelengths: &[f32],
+    row: &mut [f32],
+) {
     let (Some(a), Some(b)) = (unit(a), unit(b)) else {
-        return 0.0;
+        row.fill(0.0);
+        return;
     };
-    if a[2] < 0.0 || b[2] < 0.0 || basis[0].is_nan() {
-        return 0.0;
+    if a[2] < 0.0 || b[2] < 0.0 {
+        row.fill(0.0);
+        return;
     }
-    ev.line_value(a, b, basis).max(0.0) as f32
+    if wavelengths.len() == 1 {
+        row[0] = if basis[0].is_nan() {
+            0.0
+        } else {
+            ev.line_value(a, b, basis).max(0.0) as f32
+        };
+        return;
+    }
+    let mut c = [0.0f64; SMALL_TERMS];
+    let c = &mut c[..k];
+    ev.line_coefficients(a, b, c);
+    finish(ev, c, basis, cells, k, wavelengths, row);
 }
 
 /// ρ at the batch's one wavelength for a query whose incident side is `inc`, as `eval`

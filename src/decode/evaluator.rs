@@ -219,16 +219,22 @@ impl Evaluator {
             out.fill(0.0);
             return;
         }
-        if n == 1 && self.on_line {
-            let l = wavelengths[0] as f64;
-            out[0] = if l.is_finite() {
-                let mut b = [0.0f64; SMALL_TERMS];
-                let b = &mut b[..self.res.spectrum.terms()];
-                self.res.spectrum.basis(l, b);
-                self.line_value(wi, wo, b).max(0.0) as f32
+        if self.on_line {
+            let mut b = [0.0f64; SMALL_TERMS];
+            let b = &mut b[..self.res.spectrum.terms()];
+            if n == 1 {
+                let l = wavelengths[0] as f64;
+                out[0] = if l.is_finite() {
+                    self.res.spectrum.basis(l, b);
+                    self.line_value(wi, wo, b).max(0.0) as f32
+                } else {
+                    0.0
+                };
             } else {
-                0.0
-            };
+                // Several wavelengths: the coefficients once (`b` is their scratch).
+                self.line_coefficients(wi, wo, b);
+                self.res.spectrum.eval_clamped(b, wavelengths, out);
+            }
             return;
         }
         let q = self.query_frame(wi);
@@ -919,7 +925,7 @@ pub(crate) fn dot_terms(a: &[f32], b: &[f64]) -> f64 {
 /// Σ a\[j\]·b\[j\] in four interleaved partial sums: one running sum would make every
 /// addition wait for the last (a level-6 record has 49 terms per coefficient).
 #[inline(always)]
-fn dot_f32(a: &[f32], b: &[f64]) -> f64 {
+pub(crate) fn dot_f32(a: &[f32], b: &[f64]) -> f64 {
     let (mut s0, mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0, 0.0);
     let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
     let (ar, br) = (a4.remainder(), b4.remainder());

@@ -9,7 +9,7 @@
 //! A renderer's query at one wavelength is mostly this bookkeeping (a level-0 record is a
 //! handful of multiply-adds), so its cost is what decides the decoder against a table.
 
-use super::evaluator::{dot_terms, Evaluator, SMALL_SH, SMALL_TERMS};
+use super::evaluator::{dot_f32, dot_terms, Evaluator, SMALL_SH, SMALL_TERMS};
 use super::lattice::{Blend, Lattice};
 use crate::model::angles::{dot, polar_deg};
 use crate::model::lobes::MicrofacetGeometry;
@@ -25,8 +25,24 @@ impl Evaluator {
     /// on the line path ([`Evaluator::on_line`]).
     #[inline(always)]
     pub(crate) fn line_value(&self, wi: [f64; 3], wo: [f64; 3], b: &[f64]) -> f64 {
+        let mut sink = OneWavelength { b, acc: 0.0 };
+        self.line_terms(wi, wo, &mut sink);
+        sink.acc
+    }
+
+    /// The coefficients c_0..c_{T−1} into `c` (T zeros, T the file's terms) for unit vectors
+    /// `wi`, `wo` (local frame, z ≥ 0), for several wavelengths; on the line path.
+    #[inline(always)]
+    pub(crate) fn line_coefficients(&self, wi: [f64; 3], wo: [f64; 3], c: &mut [f64]) {
+        self.line_terms(wi, wo, &mut Coefficients { c });
+    }
+
+    /// The line path's bookkeeping: the query frame, the records and weights, the lobes' values;
+    /// each record's sums go to `sink`.
+    #[inline(always)]
+    fn line_terms(&self, wi: [f64; 3], wo: [f64; 3], sink: &mut impl LineSink) {
         let Lattice::Theta(axis) = &self.lattice else {
-            return 0.0; // not on a θ line: `on_line` is false
+            return; // not on a θ line: `on_line` is false
         };
         // The query frame (`Evaluator::query_frame`, isotropic): rotated about z so that its
         // azimuth is 0, by the azimuth's cosine and sine.
@@ -70,32 +86,33 @@ impl Evaluator {
             self.pairs[blend.rec[0]]
         };
         let level = info.level as usize;
-        let mut acc = if level == 0 {
+        if level == 0 {
             // Level 0 (records whose shape is all lobe): one SH function, a constant.
             let y0 = ShBasis::shared().constant();
-            let mut acc = 0.0;
             for i in 0..n {
                 let rec = &res.recs[blend.rec[i]];
                 let t = rec.terms as usize;
-                let a = &res.vals[rec.sh as usize..rec.sh as usize + t];
-                acc += blend.w[i] * (dot_terms(a, &b[..t]) * y0);
+                sink.sh0(
+                    blend.w[i],
+                    &res.vals[rec.sh as usize..rec.sh as usize + t],
+                    y0,
+                );
             }
-            acc
         } else {
             // The SH values on the stack, sized for the level (zeroing 49 costs as much as a
             // level-2 record's sums).
             match level {
-                1 | 2 => self.line_sh::<{ sh_count(2) }>(&blend, level, wo, b),
-                3 | 4 => self.line_sh::<{ sh_count(4) }>(&blend, level, wo, b),
-                _ => self.line_sh::<SMALL_SH>(&blend, level, wo, b),
+                1 | 2 => self.line_sh::<{ sh_count(2) }>(&blend, level, wo, sink),
+                3 | 4 => self.line_sh::<{ sh_count(4) }>(&blend, level, wo, sink),
+                _ => self.line_sh::<SMALL_SH>(&blend, level, wo, sink),
             }
-        };
+        }
         let mut geometry = None;
         for li in 0..info.nlobes as usize {
             if info.shared & (1 << li) != 0 {
                 let kind = res.lobe(&res.recs[blend.rec[0]], li).kind;
                 let v = self.line_shared(&blend, li, kind, (theta, phi), wi, wo, &mut geometry);
-                acc += self.line_amplitudes(&blend, li, v, b);
+                self.line_amplitudes(&blend, li, v, sink);
                 continue;
             }
             for i in 0..n {
@@ -123,30 +140,29 @@ impl Evaluator {
                     rec: [r, 0, 0, 0],
                     w: [blend.w[i], 0.0, 0.0, 0.0],
                 };
-                acc += self.line_amplitudes(&one, li, v, b);
+                self.line_amplitudes(&one, li, v, sink);
             }
         }
-        acc
     }
 
-    /// Σ_i w_i·Σ_k B_k·Σ_j A_kj·y_j over the blended records, y the SH values at `wo` up to
-    /// `level` (≤ the level of NSH values).
+    /// Each blended record's SH rows against the SH values y at `wo` up to `level` (≤ the
+    /// level of NSH values), into `sink`.
     #[inline(always)]
     fn line_sh<const NSH: usize>(
         &self,
         blend: &Blend,
         level: usize,
         wo: [f64; 3],
-        b: &[f64],
-    ) -> f64 {
+        sink: &mut impl LineSink,
+    ) {
         let mut y = [0.0f64; NSH];
         ShBasis::shared().eval_to_level(level, wo, &mut y);
-        let mut acc = 0.0;
         for i in 0..blend.n {
             let rec = &self.res.recs[blend.rec[i]];
-            acc += blend.w[i] * self.sh_sum(rec, &y, b);
+            let (t, p) = (rec.terms as usize, sh_count(rec.level as usize));
+            let a = &self.res.vals[rec.sh as usize..rec.sh as usize + t * p];
+            sink.sh(blend.w[i], a, &y[..p]);
         }
-        acc
     }
 
     /// The values of the lobe at position `li`, shared by the blended records, at `wo`: its
@@ -219,12 +235,11 @@ impl Evaluator {
         }
     }
 
-    /// Σ_i w_i·Σ_j v\[j\]·Σ_k B_k·amplitude\[j·T + k\] over the blended records' lobe `li` (one
-    /// value for a cosine power, four for a microfacet lobe).
+    /// The blended records' amplitudes of lobe `li` against its values `v` (one for a cosine
+    /// power, four for a microfacet lobe), into `sink`.
     #[inline(always)]
-    fn line_amplitudes(&self, blend: &Blend, li: usize, v: [f64; 4], b: &[f64]) -> f64 {
+    fn line_amplitudes(&self, blend: &Blend, li: usize, v: [f64; 4], sink: &mut impl LineSink) {
         let res = &self.res;
-        let mut acc = 0.0;
         for i in 0..blend.n {
             let rec = &res.recs[blend.rec[i]];
             let l = res.lobe(rec, li);
@@ -235,23 +250,92 @@ impl Evaluator {
                 4
             };
             let amp = &res.vals[l.amp as usize..l.amp as usize + nv * t];
-            // A few terms (the usual case) unrolled, chosen once per record.
-            let sum = match t {
-                1 => variant_sums::<1>(amp, &v[..nv], b),
-                2 => variant_sums::<2>(amp, &v[..nv], b),
-                3 => variant_sums::<3>(amp, &v[..nv], b),
-                4 => variant_sums::<4>(amp, &v[..nv], b),
-                _ => {
-                    let mut sum = 0.0;
-                    for (j, &vj) in v.iter().enumerate().take(nv) {
-                        sum += vj * dot_terms(&amp[j * t..j * t + t], &b[..t]);
-                    }
-                    sum
-                }
-            };
-            acc += blend.w[i] * sum;
+            sink.lobe(blend.w[i], amp, t, &v[..nv]);
         }
-        acc
+    }
+}
+
+/// Where the line path's per-record sums go: one wavelength's value or the coefficients.
+pub(crate) trait LineSink {
+    /// A level-0 record's SH row `a` (one value per term) with weight `w`; Y_0^0 = `y0`.
+    fn sh0(&mut self, w: f64, a: &[f32], y0: f64);
+    /// A record's SH rows `a` (one row of y.len() values per term) against the SH values `y`.
+    fn sh(&mut self, w: f64, a: &[f32], y: &[f64]);
+    /// A lobe's amplitudes `amp` (a row of `t` per variant) against its variants' values `v`.
+    fn lobe(&mut self, w: f64, amp: &[f32], t: usize, v: &[f64]);
+}
+
+/// One wavelength, basis values `b`: Σ_r w_r·Σ_k B_k·(…), terms before records ("Rounding").
+struct OneWavelength<'a> {
+    b: &'a [f64],
+    acc: f64,
+}
+
+impl LineSink for OneWavelength<'_> {
+    #[inline(always)]
+    fn sh0(&mut self, w: f64, a: &[f32], y0: f64) {
+        self.acc += w * (dot_terms(a, &self.b[..a.len()]) * y0);
+    }
+
+    #[inline(always)]
+    fn sh(&mut self, w: f64, a: &[f32], y: &[f64]) {
+        let mut sum = 0.0;
+        for (row, &bk) in a.chunks_exact(y.len()).zip(self.b) {
+            sum += bk * dot_f32(row, y);
+        }
+        self.acc += w * sum;
+    }
+
+    #[inline(always)]
+    fn lobe(&mut self, w: f64, amp: &[f32], t: usize, v: &[f64]) {
+        let b = self.b;
+        // A few terms (the usual case) unrolled, chosen once per record.
+        let sum = match t {
+            1 => variant_sums::<1>(amp, v, b),
+            2 => variant_sums::<2>(amp, v, b),
+            3 => variant_sums::<3>(amp, v, b),
+            4 => variant_sums::<4>(amp, v, b),
+            _ => {
+                let mut sum = 0.0;
+                for (row, &vj) in amp.chunks_exact(t).zip(v) {
+                    sum += vj * dot_terms(row, &b[..t]);
+                }
+                sum
+            }
+        };
+        self.acc += w * sum;
+    }
+}
+
+/// The coefficients c_k, as the general path forms them (`Evaluator::coefficients`).
+struct Coefficients<'a> {
+    c: &'a mut [f64],
+}
+
+impl LineSink for Coefficients<'_> {
+    #[inline(always)]
+    fn sh0(&mut self, w: f64, a: &[f32], y0: f64) {
+        for (ck, &ak) in self.c.iter_mut().zip(a) {
+            *ck += w * (ak as f64 * y0);
+        }
+    }
+
+    #[inline(always)]
+    fn sh(&mut self, w: f64, a: &[f32], y: &[f64]) {
+        for (ck, row) in self.c.iter_mut().zip(a.chunks_exact(y.len())) {
+            *ck += w * dot_f32(row, y);
+        }
+    }
+
+    #[inline(always)]
+    fn lobe(&mut self, w: f64, amp: &[f32], t: usize, v: &[f64]) {
+        for (k, ck) in self.c.iter_mut().enumerate().take(t) {
+            let mut sum = 0.0;
+            for (j, &vj) in v.iter().enumerate() {
+                sum += vj * amp[j * t + k] as f64;
+            }
+            *ck += w * sum;
+        }
     }
 }
 
