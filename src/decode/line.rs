@@ -1,13 +1,16 @@
-//! One wavelength on a θ line: the path [`Evaluator::eval`] and the batch take for the files the
-//! encoder writes by default — isotropic, no factor model, at most two lobes per record, each a
-//! cosine power or a microfacet lobe (kinds 2–4), SH level ≤ 6, ≤ 16 spectral terms.
+//! The θ-line path: how [`Evaluator::eval`] and the batch answer for the files the encoder
+//! writes by default — isotropic, no factor model, at most two lobes per record, each a cosine
+//! power or a microfacet lobe (kinds 2–4), SH level ≤ 6, ≤ 16 spectral terms.
 //!
-//! It computes what [`Evaluator::value_at`] computes, operation for operation in the same
-//! order (the two agree bit for bit, `tests/batch.rs`), with the generality those files do not
-//! need taken out: a query blends one record or two neighbours, whose lobes are read by
-//! position straight from the resident arrays, with no shape table, no Gaussian and no axis.
-//! A renderer's query at one wavelength is mostly this bookkeeping (a level-0 record is a
-//! handful of multiply-adds), so its cost is what decides the decoder against a table.
+//! It computes what the general path computes (the same formulas, blends and rounding to f32 of
+//! the blended shapes), with the generality those files do not need taken out: a query blends
+//! one record or two neighbours, whose lobes are read by position straight from the resident
+//! arrays, with no shape table, no Gaussian and no axis. One bookkeeping feeds two sinks: one
+//! wavelength's value, its terms summed before its records, or the coefficients c_k for several
+//! wavelengths. The two paths agree to rounding (`tests/batch.rs` holds `eval` to `eval_deg`,
+//! which takes the general path). A renderer's query at one wavelength is mostly this
+//! bookkeeping (a level-0 record is a handful of multiply-adds), so its cost is what decides the
+//! decoder against a table.
 
 use super::evaluator::{dot_f32, dot_terms, Evaluator, SMALL_SH, SMALL_TERMS};
 use super::lattice::{Blend, Lattice};
