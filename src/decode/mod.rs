@@ -10,6 +10,7 @@ pub mod decoder;
 mod evaluator;
 mod lattice;
 mod line;
+mod one;
 mod resident;
 pub mod sampling;
 
