@@ -7,7 +7,7 @@
 //! the same shortcuts (one wavelength on a θ line, node sums for many wavelengths).
 
 use super::evaluator::{Evaluator, Incident, LobeShape, Shapes, SMALL_TERMS};
-use super::lattice::{unit, QueryFrame};
+use super::lattice::{upper, QueryFrame};
 use crate::model::spectral::{Cell, SpectrumEvaluator, NODE_SUMS};
 
 /// Basis values kept for a batch: K·M of them at most (8 KiB on the stack).
@@ -93,7 +93,7 @@ pub(crate) fn eval_batch(
                 continue;
             }
             key = Some(bits);
-            cached = unit(a).filter(|v| v[2] >= 0.0).map(|v| {
+            cached = upper(a).map(|v| {
                 let q = ev.query_frame(v);
                 (q, ev.incident(q.theta, q.phi, Some(q.wi)))
             });
@@ -105,7 +105,7 @@ pub(crate) fn eval_batch(
             row.fill(0.0);
             continue;
         };
-        let Some(b) = unit(wo(i)).filter(|v| v[2] >= 0.0) else {
+        let Some(b) = upper(wo(i)) else {
             row.fill(0.0);
             continue;
         };
@@ -133,14 +133,10 @@ fn single(
     wavelengths: &[f32],
     row: &mut [f32],
 ) {
-    let (Some(a), Some(b)) = (unit(a), unit(b)) else {
+    let (Some(a), Some(b)) = (upper(a), upper(b)) else {
         row.fill(0.0);
         return;
     };
-    if a[2] < 0.0 || b[2] < 0.0 {
-        row.fill(0.0);
-        return;
-    }
     let q = ev.query_frame(a);
     let inc = ev.incident(q.theta, q.phi, Some(q.wi));
     if wavelengths.len() == 1 && !basis.is_empty() && ev.one_wavelength(&inc) {
@@ -166,14 +162,10 @@ fn line(
     wavelengths: &[f32],
     row: &mut [f32],
 ) {
-    let (Some(a), Some(b)) = (unit(a), unit(b)) else {
+    let (Some(a), Some(b)) = (upper(a), upper(b)) else {
         row.fill(0.0);
         return;
     };
-    if a[2] < 0.0 || b[2] < 0.0 {
-        row.fill(0.0);
-        return;
-    }
     if wavelengths.len() == 1 {
         row[0] = if basis[0].is_nan() {
             0.0

@@ -7,7 +7,7 @@
 //! batch entry point ([`super::batch`]) computes the incident side once for a run of pairs that
 //! share ωi.
 
-use super::lattice::{unit, Blend, Lattice, QueryFrame};
+use super::lattice::{upper, Blend, Lattice, QueryFrame};
 use super::line::{line_lobes, line_sizes};
 use super::resident::{Rec, Resident};
 use crate::model::angles::phi_delta;
@@ -211,14 +211,10 @@ impl Evaluator {
     pub(crate) fn eval(&self, wi: [f32; 3], wo: [f32; 3], wavelengths: &[f32], out: &mut [f32]) {
         let n = wavelengths.len().min(out.len());
         let (out, wavelengths) = (&mut out[..n], &wavelengths[..n]);
-        let (Some(wi), Some(wo)) = (unit(wi), unit(wo)) else {
+        let (Some(wi), Some(wo)) = (upper(wi), upper(wo)) else {
             out.fill(0.0);
             return;
         };
-        if wi[2] < 0.0 || wo[2] < 0.0 {
-            out.fill(0.0);
-            return;
-        }
         if self.on_line {
             let mut b = [0.0f64; SMALL_TERMS];
             let b = &mut b[..self.res.spectrum.terms()];

@@ -52,6 +52,13 @@ pub(crate) fn unit(v: [f32; 3]) -> Option<[f64; 3]> {
     })
 }
 
+/// [`unit`] for a direction that must lie on or above the surface: None also below it (ρ = 0
+/// there).
+#[inline(always)]
+pub(crate) fn upper(v: [f32; 3]) -> Option<[f64; 3]> {
+    unit(v).filter(|u| u[2] >= 0.0)
+}
+
 /// How stored incidences are arranged, which decides how a query is interpolated.
 #[derive(Debug, Clone)]
 pub(crate) enum Lattice {

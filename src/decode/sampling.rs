@@ -22,7 +22,7 @@
 //! density is positive wherever cos θo > 0, whatever the lobes claim.
 
 use super::evaluator::Evaluator;
-use super::lattice::{unit, QueryFrame};
+use super::lattice::{unit, upper, QueryFrame};
 use crate::model::angles::{angle_between, dir_from_deg, dot, normalize};
 use crate::model::material::{LobeKind, MAX_LOBES};
 use std::f64::consts::PI;
@@ -651,12 +651,9 @@ pub(crate) fn sample(
 }
 
 pub(crate) fn pdf(dec: &Evaluator, sw: &SamplingWeights, wi: [f32; 3], wo: [f32; 3]) -> f32 {
-    let (Some(wi), Some(wo)) = (unit(wi), unit(wo)) else {
+    let (Some(wi), Some(wo)) = (upper(wi), upper(wo)) else {
         return 0.0;
     };
-    if wi[2] < 0.0 || wo[2] < 0.0 {
-        return 0.0;
-    }
     let q = dec.query_frame(wi);
     Mixture::new(dec, sw, &q).density(q.in_frame(wo)) as f32
 }
