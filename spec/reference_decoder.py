@@ -336,7 +336,7 @@ class SbrdfFile:
         self.records = []
         self.fact = None  # the factor model (§3.7), when the file has a FACT chunk
         self.xval = None  # held-out errors (§3.8), when kept
-        seen_meta = seen_samp = seen_xval = False
+        seen_meta = seen_samp = seen_xval = seen_recs = False
         while pos < len(data):
             if seen_endf:
                 raise malformed("bytes after ENDF at offset %d (§2.5)" % pos)
@@ -381,9 +381,19 @@ class SbrdfFile:
             elif ctype == b"RECD":
                 if self.basis == 3 and self.basis_values is None:
                     raise malformed("%s: RECD before SBAS (§2.5)" % where)
+                if seen_recs:
+                    raise malformed("%s: RECD in a file with RECS (§2.5)" % where)
                 if len(self.records) >= self.n:
                     raise malformed("%s: more than N RECD chunks (§2.5)" % where)
                 self.records.append(self.parse_recd(body, where))
+            elif ctype == b"RECS":
+                # §2.5 rule 3: one RECS instead of the N RECD chunks (version 1.3)
+                if self.basis == 3 and self.basis_values is None:
+                    raise malformed("%s: RECS before SBAS (§2.5)" % where)
+                if seen_recs or self.records:
+                    raise malformed("%s: a second RECS, or RECS beside RECD (§2.5)" % where)
+                seen_recs = True
+                self.records = self.parse_recs(body, where)
             elif ctype == b"meta":
                 if seen_meta:
                     raise malformed("%s: second meta chunk (§2.5)" % where)
@@ -512,6 +522,40 @@ class SbrdfFile:
             raise malformed("%s: non-zero reserved byte (§3.3)" % where)
         if body[4:12] != self.incidence_bytes[index]:
             raise malformed("%s: (theta_i, phi_i) differ from HEAD (§3.3)" % where)
+        rec = self.parse_record_values(r, where, th, ph, tp, pp, rel, crit, scale_bytes,
+                                       m, prec, level, terms)
+        if r.left():
+            raise malformed("%s: %d bytes left after the last lobe (§3.3)" % (where, r.left()))
+        return rec
+
+    def parse_recs(self, body, where):
+        """RECS (§3.9, version 1.3): the N records back to back, each without index,
+        incidence and reserved bytes, its scale only with precision 2."""
+        r = Reader(body, where)
+        records = []
+        for index in range(self.n):
+            th, ph = struct.unpack("<ff", self.incidence_bytes[index])
+            tp, pp, rel, crit = r.take("4f", "compact record")
+            m, prec, level, terms = r.take("BBBH", "compact record")
+            if prec not in (1, 2):
+                raise unsupported("%s: record %d: unknown precision %d (§4)" % (where, index, prec))
+            if prec == 2:
+                scale_bytes = bytes(r.data[r.pos:r.pos + 4])
+                r.take("f", "scale")
+            else:
+                scale_bytes = b"\x00\x00\x80\x3f"
+            where_i = "%s, record %d" % (where, index)
+            records.append(self.parse_record_values(r, where_i, th, ph, tp, pp, rel, crit,
+                                                    scale_bytes, m, prec, level, terms))
+        if r.left():
+            raise malformed("%s: %d bytes left after the last record (§3.9)" % (where, r.left()))
+        return records
+
+    def parse_record_values(self, r, where, th, ph, tp, pp, rel, crit, scale_bytes, m, prec,
+                            level, terms):
+        """The rules of §3.3 on a record's header fields, then its SH coefficients and lobes
+        (the same bytes in RECD and RECS)."""
+        (scale,) = struct.unpack("<f", scale_bytes)
         if not (0 <= tp <= 180 and 0 <= pp < 360 and 0 <= crit <= 180):
             raise malformed("%s: peak or critical angle out of range (§3.3)" % where)
         if any(is_neg_zero(v) for v in (tp, pp, crit)):
@@ -575,8 +619,6 @@ class SbrdfFile:
                 raise malformed("%s: lobe %d parameters out of range (§3.3)" % (where, li))
             rows = [amps[j * terms:(j + 1) * terms] for j in range(n_amp // terms)]
             rec.lobes.append((kind, rows, params))
-        if r.left():
-            raise malformed("%s: %d bytes left after the last lobe (§3.3)" % (where, r.left()))
         return rec
 
     def parse_samp(self, body, where):

@@ -8,11 +8,12 @@ fn golden(name: &str) -> Vec<u8> {
     std::fs::read(common::samples_dir().join("golden").join(name)).unwrap()
 }
 
-const FILES: [&str; 4] = [
+const FILES: [&str; 5] = [
     "tiny.sbrdf",
     "phong_3inc_paper.sbrdf",
     "phong_3inc_direct_f16.sbrdf",
     "ggx_3inc_range_v11.sbrdf",
+    "ggx_3inc_compact_v13.sbrdf",
 ];
 
 #[test]
@@ -307,5 +308,136 @@ fn wavelength_ranges() {
             }
             other => panic!("flag bit {bit}: expected unsupported, got {other:?}"),
         }
+    }
+}
+
+/// Version 1.3's compact records (`spec/FORMAT.md` §3.9): one `RECS` chunk reads to the records
+/// the N `RECD` chunks of the same material hold, 27 bytes fewer per f16 record; the writer uses
+/// it exactly when the material allows 1.3; and every structural rule of §2.5 and §3.9 refuses a
+/// hostile file without allocating for counts the bytes do not back.
+#[test]
+fn compact_records() {
+    let v13 = golden("ggx_3inc_compact_v13.sbrdf");
+    let m = read_material(&v13, &Limits::default()).unwrap();
+    assert_eq!(m.version_minor, 3);
+    let c = chunks(&v13);
+    let kinds: Vec<[u8; 4]> = c.iter().map(|x| x.0).collect();
+    assert!(kinds.contains(b"RECS") && !kinds.contains(b"RECD"));
+    // The same material as 1.2: N RECD chunks, the same records when read back.
+    let mut as12 = m.clone();
+    as12.version_minor = 2;
+    let v12 = sbrdf::write_material(&as12).unwrap();
+    let c12 = chunks(&v12);
+    assert_eq!(c12.iter().filter(|x| &x.0 == b"RECD").count(), 3);
+    assert!(!c12.iter().any(|x| &x.0 == b"RECS"));
+    assert_eq!(
+        &c12[0].1[2..4],
+        &[1, 0],
+        "without RECS, the range makes it 1.1"
+    );
+    let back = read_material(&v12, &Limits::default()).unwrap();
+    assert_eq!(
+        back.records, m.records,
+        "RECS and RECD hold the same records"
+    );
+    assert!(m
+        .records
+        .iter()
+        .all(|r| r.precision == sbrdf::Precision::F16));
+    assert_eq!(
+        v12.len() - v13.len(),
+        27 * 3 - 12,
+        "27 bytes per f16 record, 12 once"
+    );
+    // Written back at 1.3, the golden file's bytes come out again.
+    assert_eq!(sbrdf::write_material(&m).unwrap(), v13);
+    // An f32 record has no scale field: 4 bytes fewer still.
+    let mut f32s = m.clone();
+    for r in &mut f32s.records {
+        r.precision = sbrdf::Precision::F32;
+    }
+    let b32 = sbrdf::write_material(&f32s).unwrap();
+    assert_eq!(read_material(&b32, &Limits::default()).unwrap(), f32s);
+    let recs_len = |b: &[u8]| {
+        chunks(b)
+            .into_iter()
+            .find(|x| &x.0 == b"RECS")
+            .unwrap()
+            .1
+            .len()
+    };
+    let values: usize = m
+        .records
+        .iter()
+        .map(|r| {
+            2 * r.sh.len()
+                + r.lobes
+                    .iter()
+                    .map(|l| 4 + 2 * l.amplitude.len() + 4 * l.params.len())
+                    .sum::<usize>()
+        })
+        .sum();
+    assert_eq!(recs_len(&v13), 3 * 25 + values);
+    let amps: usize = m
+        .records
+        .iter()
+        .map(|r| r.sh.len() + r.lobes.iter().map(|l| l.amplitude.len()).sum::<usize>())
+        .sum();
+    assert_eq!(recs_len(&b32), 3 * 21 + values + 2 * amps);
+
+    let recs = kinds.iter().position(|k| k == b"RECS").unwrap();
+    let refused = |c: &[([u8; 4], Vec<u8>)], what: &str| match read_material(
+        &assemble(c),
+        &Limits::default(),
+    ) {
+        Err(Error::Format { message, .. }) => message,
+        other => panic!("{what}: expected malformed, got {other:?}"),
+    };
+    // A RECD beside RECS, after or before it; a second RECS; RECS before SBAS.
+    let recd = chunks(&v12).into_iter().find(|x| &x.0 == b"RECD").unwrap();
+    let mut x = c.clone();
+    x.insert(recs + 1, recd.clone());
+    assert!(refused(&x, "RECD after RECS").contains("RECS"));
+    let mut x = c.clone();
+    x.insert(recs, recd);
+    refused(&x, "RECS after RECD");
+    let mut x = c.clone();
+    x.insert(recs, c[recs].clone());
+    refused(&x, "two RECS");
+    let sbas = kinds.iter().position(|k| k == b"SBAS").unwrap();
+    let mut x = c.clone();
+    let moved = x.remove(recs);
+    x.insert(sbas, moved);
+    assert!(refused(&x, "RECS before SBAS").contains("SBAS"));
+    // A byte left over; a record running past the chunk; fewer than 21·N bytes; N records
+    // claimed by a HEAD whose incidence count is huge (refused by HEAD's length, not allocated).
+    let mut x = c.clone();
+    x[recs].1.push(0);
+    assert!(refused(&x, "a byte after the last record").contains("unexpected bytes"));
+    let mut x = c.clone();
+    x[recs].1.pop();
+    refused(&x, "the last record cut short");
+    let mut x = c.clone();
+    x[recs].1.truncate(20);
+    assert!(refused(&x, "fewer than 21 N bytes").contains("at least 63 bytes"));
+    // The record rules hold in a compact record: a zero scale, a level above HEAD's, 0 terms,
+    // −0 as the peak's θ; an unknown precision is unsupported.
+    for (offset, bytes, what) in [
+        (21usize, 0f32.to_le_bytes().to_vec(), "zero scale"),
+        (18, vec![7], "level above HEAD's"),
+        (19, vec![0, 0], "zero terms"),
+        (0, (-0f32).to_le_bytes().to_vec(), "θp = −0"),
+    ] {
+        let mut x = c.clone();
+        x[recs].1[offset..offset + bytes.len()].copy_from_slice(&bytes);
+        refused(&x, what);
+    }
+    let mut x = c.clone();
+    x[recs].1[17] = 9;
+    match read_material(&assemble(&x), &Limits::default()) {
+        Err(Error::Unsupported { message, .. }) => {
+            assert!(message.contains("precision"), "{message}")
+        }
+        other => panic!("unknown precision: expected unsupported, got {other:?}"),
     }
 }

@@ -134,11 +134,13 @@ pub struct EncodeOptionArgs {
     /// error) or `none` (no metadata chunk).
     #[arg(long, value_name = "LEVEL", default_value = "full")]
     pub meta: String,
-    /// The newest format version the file may use: 1.2 (anisotropic lobes, for inputs with
-    /// several incident azimuths), 1.1 (evenly spaced wavelengths stored as a range, the shared
-    /// factor model) or 1.0 (readable by every 1.0 reader). A file is written as the lowest
-    /// version whose features it uses: one using no 1.1 feature is 1.0.
-    #[arg(long, value_name = "VERSION", default_value = "1.2")]
+    /// The newest format version the file may use: 1.3 (compact records: 27 bytes fewer per
+    /// incidence), 1.2 (anisotropic lobes, for inputs with several incident azimuths), 1.1
+    /// (evenly spaced wavelengths stored as a range, the shared factor model) or 1.0 (readable
+    /// by every 1.0 reader). Below 1.3 a file is written as the lowest version whose features it
+    /// uses: one using no 1.1 feature is 1.0. Give an older version for readers older than
+    /// this sbrdf.
+    #[arg(long, value_name = "VERSION", default_value = "1.3")]
     pub format: String,
     /// Keep only the input's wavelengths within MIN:MAX nm (what a scene renders).
     #[arg(long, value_name = "MIN:MAX")]

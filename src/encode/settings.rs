@@ -160,13 +160,14 @@ pub fn parse_meta(s: &str) -> Result<crate::encode::encoder::MetaLevel> {
     }
 }
 
-/// `1.0` or `1.1`: the newest minor version a file may use.
+/// `1.0` to `1.3`: the newest minor version a file may use.
 pub fn parse_format(s: &str) -> Result<u16> {
     match s.trim() {
         "1.0" => Ok(0),
         "1.1" => Ok(1),
         "1.2" => Ok(2),
-        _ => Err(bad("format", s, "1.0, 1.1 or 1.2")),
+        "1.3" => Ok(3),
+        _ => Err(bad("format", s, "1.0, 1.1, 1.2 or 1.3")),
     }
 }
 

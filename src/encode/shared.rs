@@ -89,8 +89,9 @@ pub fn encode_shared(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         set.wavelengths[0],
         set.wavelengths[set.wavelengths.len() - 1],
     );
-    let material = Material {
-        version_minor: VERSION_MINOR_FACTOR,
+    let mut material = Material {
+        // A factor model is a 1.1 feature; 1.3 adds compact records when allowed.
+        version_minor: opts.format_minor.min(crate::format::VERSION_MINOR),
         // The records add nothing; their basis is the smallest there is.
         spectral: SpectralSpace::analytic(SpectralBasis::Cosine, 1, lo, hi),
         sh_level: 0,
@@ -119,6 +120,8 @@ pub fn encode_shared(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         }),
         factor: Some(fit.model),
     };
+    // The version the file will declare, so that the material read back from it is this one.
+    material.version_minor = crate::format::written_version(&material).0;
     material
         .validate()
         .map_err(|e| Error::Parameter(format!("encoder produced an invalid material: {e}")))?;

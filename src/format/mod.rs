@@ -1,4 +1,4 @@
-//! Bytes: the `.sbrdf` format, version 1.0 — signature, chunk types, limits; the writer and
+//! Bytes: the `.sbrdf` format, versions 1.0 to 1.3 — signature, chunk types, limits; the writer and
 //! the reader. Uses [`crate::model`] only.
 //!
 //! Normative text: `spec/FORMAT.md`. Layout: a 10-byte signature, then chunks of
@@ -7,6 +7,7 @@
 //! one that readers may skip.
 
 mod read;
+mod read_records;
 mod write;
 
 pub use read::read_material;
@@ -16,11 +17,11 @@ pub use write::{f16_scale, quantize_record_f16, write_material, written_version}
 /// line-ending translation, 0x1A stops `type` on old systems (PNG's design).
 pub const SIGNATURE: [u8; 10] = [0x89, b'S', b'B', b'R', b'D', b'F', 0x0D, 0x0A, 0x1A, 0x0A];
 pub const VERSION_MAJOR: u16 = 1;
-/// The newest minor version this crate reads and writes. A file is written as 1.2 only when it
-/// holds an anisotropic microfacet lobe (kind 5), as 1.1 when it uses a 1.1 feature (a
-/// wavelength range, [`FLAG_WAVELENGTH_RANGE`], or a factor model, `FACT`); otherwise it is 1.0,
-/// byte for byte.
-pub const VERSION_MINOR: u16 = 2;
+/// The newest minor version this crate reads and writes. A file is written as 1.3 when its
+/// records are compact (one `RECS` chunk), as 1.2 when it holds an anisotropic microfacet lobe
+/// (kind 5), as 1.1 when it uses a 1.1 feature (a wavelength range, [`FLAG_WAVELENGTH_RANGE`],
+/// or a factor model, `FACT`); otherwise it is 1.0, byte for byte.
+pub const VERSION_MINOR: u16 = 3;
 
 /// `HEAD` flag bit 0: only φi = 0 is stored; other azimuths are answered by rotation.
 pub const FLAG_ISOTROPIC: u32 = 1;
@@ -49,6 +50,8 @@ pub const ANGLE_CONVENTION: u8 = 1;
 
 pub const CHUNK_HEAD: [u8; 4] = *b"HEAD";
 pub const CHUNK_RECD: [u8; 4] = *b"RECD";
+/// Version 1.3: all N records in one chunk, without what `HEAD` and their order already say.
+pub const CHUNK_RECS: [u8; 4] = *b"RECS";
 pub const CHUNK_ENDF: [u8; 4] = *b"ENDF";
 pub const CHUNK_SBAS: [u8; 4] = *b"SBAS";
 pub const CHUNK_META: [u8; 4] = *b"meta";
@@ -59,9 +62,14 @@ pub const CHUNK_XVAL: [u8; 4] = *b"xval";
 pub const VERSION_MINOR_FACTOR: u16 = 1;
 /// The minor version of files that hold an anisotropic microfacet lobe (kind 5).
 pub const VERSION_MINOR_ANISO: u16 = 2;
+/// The minor version of files whose records are compact (`RECS`); the writer uses them whenever
+/// the material allows 1.3.
+pub const VERSION_MINOR_COMPACT: u16 = 3;
 
 pub(crate) const HEAD_FIXED: usize = 40;
 pub(crate) const RECD_FIXED: usize = 40;
+/// A compact record's fixed part (`RECS`), before its scale (f16 records only) and values.
+pub(crate) const RECS_FIXED: usize = 21;
 pub(crate) const LOBE_FIXED: usize = 4;
 
 /// The largest chunk the format allows (as PNG: 2³¹ − 1).

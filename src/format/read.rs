@@ -1,19 +1,20 @@
 //! Reading a file: every chunk framed, CRC-checked and bounded by the bytes present, then
 //! validated into a [`Material`] (`spec/FORMAT.md`, "Decoder behaviour").
 
+use super::read_records::{read_compact_records, read_record};
 use super::*;
 use crate::error::{Error, Location, Result};
 use crate::model::factor::{
     FactorComponent, FactorModel, Feature, MAX_COMPONENTS, MAX_FEATURES, MAX_RANK,
 };
 use crate::model::material::*;
-use crate::model::sh::{sh_count, MAX_SH_LEVEL};
+use crate::model::sh::MAX_SH_LEVEL;
 use crate::model::spectral::{SpectralBasis, SpectralSpace};
 use crate::model::Precision;
 use half::f16;
 
 /// Reads little-endian fields from one chunk's data, reporting file offsets in errors.
-struct Fields<'a> {
+pub(super) struct Fields<'a> {
     data: &'a [u8],
     pos: usize,
     /// File offset of data[0].
@@ -22,25 +23,25 @@ struct Fields<'a> {
 }
 
 impl<'a> Fields<'a> {
-    fn at(&self) -> Location {
+    pub(super) fn at(&self) -> Location {
         Location {
             offset: self.base + self.pos as u64,
             chunk: Some(self.chunk),
         }
     }
-    fn malformed(&self, message: impl Into<String>) -> Error {
+    pub(super) fn malformed(&self, message: impl Into<String>) -> Error {
         Error::Format {
             at: self.at(),
             message: message.into(),
         }
     }
-    fn unsupported(&self, message: impl Into<String>) -> Error {
+    pub(super) fn unsupported(&self, message: impl Into<String>) -> Error {
         Error::Unsupported {
             at: self.at(),
             message: message.into(),
         }
     }
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
+    pub(super) fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8]> {
         if self.data.len() - self.pos < n {
             return Err(self.malformed(format!(
                 "chunk ends before its field '{what}' ({} bytes left, {n} needed)",
@@ -51,25 +52,25 @@ impl<'a> Fields<'a> {
         self.pos += n;
         Ok(s)
     }
-    fn remaining(&self) -> usize {
+    pub(super) fn remaining(&self) -> usize {
         self.data.len() - self.pos
     }
-    fn u8(&mut self, what: &str) -> Result<u8> {
+    pub(super) fn u8(&mut self, what: &str) -> Result<u8> {
         Ok(self.take(1, what)?[0])
     }
-    fn u16(&mut self, what: &str) -> Result<u16> {
+    pub(super) fn u16(&mut self, what: &str) -> Result<u16> {
         Ok(u16::from_le_bytes(self.take(2, what)?.try_into().unwrap()))
     }
-    fn u32(&mut self, what: &str) -> Result<u32> {
+    pub(super) fn u32(&mut self, what: &str) -> Result<u32> {
         Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
     }
-    fn f32(&mut self, what: &str) -> Result<f32> {
+    pub(super) fn f32(&mut self, what: &str) -> Result<f32> {
         Ok(f32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
     }
-    fn f64(&mut self, what: &str) -> Result<f64> {
+    pub(super) fn f64(&mut self, what: &str) -> Result<f64> {
         Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
     }
-    fn stored(&mut self, precision: Precision, scale: f32, what: &str) -> Result<f32> {
+    pub(super) fn stored(&mut self, precision: Precision, scale: f32, what: &str) -> Result<f32> {
         Ok(match precision {
             Precision::F32 => self.f32(what)?,
             Precision::F16 => {
@@ -77,7 +78,7 @@ impl<'a> Fields<'a> {
             }
         })
     }
-    fn zero(&mut self, n: usize, what: &str) -> Result<()> {
+    pub(super) fn zero(&mut self, n: usize, what: &str) -> Result<()> {
         let at = self.at();
         if self.take(n, what)?.iter().any(|&b| b != 0) {
             return Err(Error::Format {
@@ -87,7 +88,7 @@ impl<'a> Fields<'a> {
         }
         Ok(())
     }
-    fn finish(&self) -> Result<()> {
+    pub(super) fn finish(&self) -> Result<()> {
         if self.remaining() != 0 {
             return Err(self.malformed(format!(
                 "{} unexpected bytes at the end of the chunk",
@@ -98,13 +99,13 @@ impl<'a> Fields<'a> {
     }
 }
 
-struct Head {
-    spectral: SpectralSpace,
-    sh_level: usize,
+pub(super) struct Head {
+    pub(super) spectral: SpectralSpace,
+    pub(super) sh_level: usize,
     isotropic: bool,
     minor: u16,
     wavelengths: Vec<f32>,
-    incidences: Vec<[f32; 2]>,
+    pub(super) incidences: Vec<[f32; 2]>,
 }
 
 fn read_head(f: &mut Fields) -> Result<Head> {
@@ -186,131 +187,6 @@ fn read_head(f: &mut Fields) -> Result<Head> {
         minor,
         wavelengths,
         incidences,
-    })
-}
-
-fn read_record(f: &mut Fields, h: &Head, expected_index: usize) -> Result<IncidentRecord> {
-    let index = f.u32("index")? as usize;
-    if index != expected_index {
-        return Err(f.malformed(format!(
-            "record index {index} where record {expected_index} was expected"
-        )));
-    }
-    let theta_i = f.f32("theta_i")?;
-    let phi_i = f.f32("phi_i")?;
-    let [ht, hp] = h.incidences[index];
-    if theta_i.to_bits() != ht.to_bits() || phi_i.to_bits() != hp.to_bits() {
-        return Err(f.malformed(format!(
-            "record {index} is for incidence ({theta_i}, {phi_i}) but HEAD lists ({ht}, {hp})"
-        )));
-    }
-    let theta_p = f.f32("theta_p")?;
-    let phi_p = f.f32("phi_p")?;
-    let rel_error = f.f32("rel_error")?;
-    let critical_angle = f.f32("critical_angle")?;
-    let scale = f.f32("scale")?;
-    let lobe_count = f.u8("lobe_count")? as usize;
-    if lobe_count > MAX_LOBES {
-        return Err(f.malformed(format!("{lobe_count} lobes exceed {MAX_LOBES}")));
-    }
-    let prec_code = f.u8("precision")?;
-    let precision = Precision::from_code(prec_code)
-        .ok_or_else(|| f.unsupported(format!("unknown storage precision code {prec_code}")))?;
-    let sh_level = f.u8("sh_level")? as usize;
-    if sh_level > h.sh_level {
-        return Err(f.malformed(format!(
-            "record SH level {sh_level} above the file's {}",
-            h.sh_level
-        )));
-    }
-    f.zero(1, "reserved")?;
-    let k = f.u16("terms")? as usize;
-    if k == 0 || k > h.spectral.terms {
-        return Err(f.malformed(format!(
-            "record uses {k} terms, the file allows 1 to {}",
-            h.spectral.terms
-        )));
-    }
-    f.zero(2, "reserved")?;
-    let scale_ok = match precision {
-        Precision::F32 => scale == 1.0,
-        // A positive normal or subnormal power of two: one bit set in the significand field,
-        // or a zero significand with a non-zero exponent.
-        Precision::F16 => {
-            let b = scale.to_bits();
-            let (exp, man) = ((b >> 23) & 0xff, b & 0x7f_ffff);
-            b >> 31 == 0
-                && exp != 0xff
-                && ((exp != 0 && man == 0) || (exp == 0 && man.is_power_of_two()))
-        }
-    };
-    if !scale_ok {
-        return Err(f.malformed(format!(
-            "record scale {scale} is not 1 (f32 records) or a positive power of two (f16)"
-        )));
-    }
-    let p = sh_count(sh_level);
-    let s = precision.bytes();
-    // Check the fixed-size part against the bytes present before allocating for it.
-    if k * p * s > f.remaining() {
-        return Err(f.malformed(format!(
-            "{k} terms × {p} SH coefficients need {} bytes, the record has {}",
-            k * p * s,
-            f.remaining()
-        )));
-    }
-    let mut sh = Vec::with_capacity(k * p);
-    for _ in 0..k * p {
-        sh.push(f.stored(precision, scale, "sh")?);
-    }
-    let mut lobes = Vec::with_capacity(lobe_count);
-    for _ in 0..lobe_count {
-        let code = f.u8("lobe_kind")?;
-        f.zero(1, "reserved")?;
-        let len = f.u16("lobe_length")? as usize;
-        if len > f.remaining() {
-            return Err(f.malformed(format!(
-                "lobe claims {len} bytes, the record has {} left",
-                f.remaining()
-            )));
-        }
-        let kind = LobeKind::from_code(code)
-            .ok_or_else(|| f.unsupported(format!("unknown lobe kind {code}")))?;
-        let (na, np) = (kind.amplitude_count(k), kind.param_count(k));
-        let need = na * s + 4 * np;
-        if len != need {
-            return Err(f.malformed(format!(
-                "a {} lobe of {k} terms is {need} bytes, not {len}",
-                kind.name()
-            )));
-        }
-        let mut amplitude = Vec::with_capacity(na);
-        for _ in 0..na {
-            amplitude.push(f.stored(precision, scale, "amplitude")?);
-        }
-        let mut params = Vec::with_capacity(np);
-        for _ in 0..np {
-            params.push(f.f32("lobe_parameter")?);
-        }
-        lobes.push(Lobe {
-            kind,
-            amplitude,
-            params,
-        });
-    }
-    f.finish()?;
-    Ok(IncidentRecord {
-        terms: k,
-        sh_level,
-        precision,
-        theta_i,
-        phi_i,
-        theta_p,
-        phi_p,
-        rel_error,
-        critical_angle,
-        sh,
-        lobes,
     })
 }
 
@@ -530,6 +406,7 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
     let mut table = None;
     let mut factor = None;
     let (mut held_out, mut seen_xval) = (None, false);
+    let mut seen_recs = false;
     loop {
         if pos == bytes.len() {
             return Err(malformed(
@@ -672,6 +549,13 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                         "a tabulated basis needs its SBAS chunk before the records".into(),
                     ));
                 }
+                if seen_recs {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "a RECD chunk in a file whose records are in RECS".into(),
+                    ));
+                }
                 if records.len() == h.incidences.len() {
                     return Err(malformed(
                         pos,
@@ -683,6 +567,24 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                     ));
                 }
                 records.push(read_record(&mut f, h, records.len())?);
+            }
+            (&CHUNK_RECS, Some(h)) => {
+                if h.spectral.basis == SpectralBasis::Tabulated && table.is_none() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "a tabulated basis needs its SBAS chunk before the records".into(),
+                    ));
+                }
+                if seen_recs || !records.is_empty() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "a file holds its records in one RECS chunk or in RECD chunks, once".into(),
+                    ));
+                }
+                seen_recs = true;
+                records = read_compact_records(&mut f, h)?;
             }
             (&CHUNK_META, Some(_)) => {
                 if metadata.is_some() {

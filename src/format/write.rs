@@ -60,10 +60,14 @@ fn push_chunk(out: &mut Vec<u8>, kind: [u8; 4], data: &[u8]) {
 /// The minor version `m` is written as, and whether its wavelengths are stored as a range.
 /// Version 1.1's range is used when the material allows 1.1 features (`version_minor` ≥ 1) and
 /// its wavelengths are evenly spaced; a factor model (`FACT`) is a 1.1 feature and an
-/// anisotropic lobe (kind 5) a 1.2 feature whatever the material asks. A file without 1.1
-/// features is written as 1.0, byte for byte. Reading the file back gives this minor version.
+/// anisotropic lobe (kind 5) a 1.2 feature whatever the material asks. Compact records
+/// (`RECS`, 1.3) are used exactly when the material allows 1.3. A file without 1.1 features is
+/// written as 1.0, byte for byte. Reading the file back gives this minor version.
 pub fn written_version(m: &Material) -> (u16, bool) {
     let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
+    if m.version_minor >= VERSION_MINOR_COMPACT {
+        return (VERSION_MINOR_COMPACT, range);
+    }
     let aniso = m
         .records
         .iter()
@@ -86,6 +90,7 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     out.extend_from_slice(&SIGNATURE);
 
     let (minor, range) = written_version(m);
+    let compact = minor >= VERSION_MINOR_COMPACT;
     let mut flags = if m.isotropic { FLAG_ISOTROPIC } else { 0 };
     if range {
         flags |= FLAG_WAVELENGTH_RANGE;
@@ -187,58 +192,91 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
         push_chunk(&mut out, CHUNK_XVAL, &d);
     }
 
-    for (index, r) in m.records.iter().enumerate() {
-        let (k, p, s) = (r.terms, sh_count(r.sh_level), r.precision.bytes());
-        let mut d =
-            Vec::with_capacity(RECD_FIXED + k * p * s + r.lobes.len() * (LOBE_FIXED + 16 * k));
-        let scale = match r.precision {
-            Precision::F32 => 1.0f32,
-            Precision::F16 => record_scale(r),
-        };
-        d.extend_from_slice(&(index as u32).to_le_bytes());
-        for v in [
-            r.theta_i,
-            r.phi_i,
-            r.theta_p,
-            r.phi_p,
-            r.rel_error,
-            r.critical_angle,
-            scale,
-        ] {
-            d.extend_from_slice(&v.to_le_bytes());
-        }
-        d.push(r.lobes.len() as u8);
-        d.push(r.precision.code());
-        d.push(r.sh_level as u8);
-        d.push(0);
-        d.extend_from_slice(&(k as u16).to_le_bytes());
-        d.extend_from_slice(&0u16.to_le_bytes());
-        let put = |d: &mut Vec<u8>, v: f32| match r.precision {
-            Precision::F32 => d.extend_from_slice(&v.to_le_bytes()),
-            Precision::F16 => d.extend_from_slice(&f16::from_f32(v / scale).to_le_bytes()),
-        };
-        for &v in &r.sh {
-            put(&mut d, v);
-        }
-        for lobe in &r.lobes {
-            let lobe_bytes = lobe.amplitude.len() * s + 4 * lobe.params.len();
-            d.push(lobe.kind.code());
-            d.push(0);
-            d.extend_from_slice(&(lobe_bytes as u16).to_le_bytes());
-            for &v in &lobe.amplitude {
-                put(&mut d, v);
-            }
-            for &v in &lobe.params {
+    if compact {
+        // Version 1.3: every record in one chunk, each without index, incidence and reserved
+        // bytes, its scale only when it is f16.
+        let mut d = Vec::new();
+        for r in &m.records {
+            let scale = scale_of(r);
+            for v in [r.theta_p, r.phi_p, r.rel_error, r.critical_angle] {
                 d.extend_from_slice(&v.to_le_bytes());
             }
+            d.push(r.lobes.len() as u8);
+            d.push(r.precision.code());
+            d.push(r.sh_level as u8);
+            d.extend_from_slice(&(r.terms as u16).to_le_bytes());
+            if r.precision == Precision::F16 {
+                d.extend_from_slice(&scale.to_le_bytes());
+            }
+            record_values(&mut d, r, scale);
         }
-        push_chunk(&mut out, CHUNK_RECD, &d);
+        push_chunk(&mut out, CHUNK_RECS, &d);
+    } else {
+        for (index, r) in m.records.iter().enumerate() {
+            let (k, p, s) = (r.terms, sh_count(r.sh_level), r.precision.bytes());
+            let mut d =
+                Vec::with_capacity(RECD_FIXED + k * p * s + r.lobes.len() * (LOBE_FIXED + 16 * k));
+            let scale = scale_of(r);
+            d.extend_from_slice(&(index as u32).to_le_bytes());
+            for v in [
+                r.theta_i,
+                r.phi_i,
+                r.theta_p,
+                r.phi_p,
+                r.rel_error,
+                r.critical_angle,
+                scale,
+            ] {
+                d.extend_from_slice(&v.to_le_bytes());
+            }
+            d.push(r.lobes.len() as u8);
+            d.push(r.precision.code());
+            d.push(r.sh_level as u8);
+            d.push(0);
+            d.extend_from_slice(&(k as u16).to_le_bytes());
+            d.extend_from_slice(&0u16.to_le_bytes());
+            record_values(&mut d, r, scale);
+            push_chunk(&mut out, CHUNK_RECD, &d);
+        }
     }
     push_chunk(&mut out, CHUNK_ENDF, &[]);
     Ok(out)
 }
 
 /// The data of a `FACT` chunk (`FORMAT.md`, §3.7).
+/// The record's scale: 1 for f32, the power of two of §5 for f16.
+fn scale_of(r: &IncidentRecord) -> f32 {
+    match r.precision {
+        Precision::F32 => 1.0,
+        Precision::F16 => record_scale(r),
+    }
+}
+
+/// A record's SH coefficients, then its lobes (header, amplitudes, parameters): the same bytes
+/// in `RECD` and `RECS`.
+fn record_values(d: &mut Vec<u8>, r: &IncidentRecord, scale: f32) {
+    let s = r.precision.bytes();
+    let put = |d: &mut Vec<u8>, v: f32| match r.precision {
+        Precision::F32 => d.extend_from_slice(&v.to_le_bytes()),
+        Precision::F16 => d.extend_from_slice(&f16::from_f32(v / scale).to_le_bytes()),
+    };
+    for &v in &r.sh {
+        put(d, v);
+    }
+    for lobe in &r.lobes {
+        let lobe_bytes = lobe.amplitude.len() * s + 4 * lobe.params.len();
+        d.push(lobe.kind.code());
+        d.push(0);
+        d.extend_from_slice(&(lobe_bytes as u16).to_le_bytes());
+        for &v in &lobe.amplitude {
+            put(d, v);
+        }
+        for &v in &lobe.params {
+            d.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+}
+
 fn factor_chunk(f: &FactorModel) -> Vec<u8> {
     let mut d = vec![f.components.len() as u8, f.precision.code(), 0, 0];
     for r in &f.ranges {
