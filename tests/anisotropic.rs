@@ -43,15 +43,27 @@ fn anisotropic_ggx_on_a_lattice_within_the_budgets() {
             r.phi_i
         );
     }
-    assert_eq!(bytes[20..22], [3, 0], "compact records by default: version 1.3");
+    assert_eq!(
+        bytes[20..22],
+        [3, 0],
+        "compact records by default: version 1.3"
+    );
     let mut as12 = enc.material.clone();
     as12.version_minor = 2;
     let v12 = sbrdf::write_material(&as12).unwrap();
-    assert_eq!(v12[20..22], [2, 0], "a file with kind 5 is version 1.2 without RECS");
+    assert_eq!(
+        v12[20..22],
+        [2, 0],
+        "a file with kind 5 is version 1.2 without RECS"
+    );
     let mut as11 = enc.material.clone();
     as11.version_minor = 1;
     let v11 = sbrdf::write_material(&as11).unwrap();
-    assert_eq!(v11[20..22], [2, 0], "kind 5 makes it 1.2 whatever the material asks");
+    assert_eq!(
+        v11[20..22],
+        [2, 0],
+        "kind 5 makes it 1.2 whatever the material asks"
+    );
     let dec = Decoder::from_bytes(&bytes).unwrap();
     let mut worst_stored = 0.0f64;
     for inc in lattice().into_iter().filter(|i| i.0 <= 60.0) {
