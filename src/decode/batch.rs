@@ -70,6 +70,11 @@ pub(crate) fn eval_batch(
     } else {
         &cells[..0]
     };
+    if let (Some(kernel), 1, true) = (&ev.kernel, m, tabulated) {
+        // One wavelength on a θ line: the kernel, its pairs sorted by group, four lanes at once.
+        kernel.batch(ev, &wi, &wo, n, basis, out);
+        return;
+    }
     if ev.on_line() {
         // A θ line: each pair as `eval` computes it (the line path's incident side costs less
         // than keeping it).

@@ -155,10 +155,15 @@ impl Decoder {
 
     /// ρ for many direction pairs at once: pair i is (`wi[i]`, `wo[i]`), and a slice of length 1
     /// is used for every pair (one light, many viewers, say). Row i of `out` (`wavelengths.len()`
-    /// values from i·`wavelengths.len()`) receives what [`Decoder::eval`] would write for pair i.
-    /// Work that depends on the incident direction alone (the records to blend and the blended
-    /// lobe shapes) is done once per run of pairs with the same `wi`, and the spectral basis
-    /// once per wavelength for the whole batch. Never allocates.
+    /// values from i·`wavelengths.len()`) receives what [`Decoder::eval`] would write for pair i:
+    /// bit for bit, except at one wavelength for the files `eval` answers on its θ-line path
+    /// (isotropic, at most two lobes per record, the encoder's default), where a vectorised
+    /// kernel collapses each record's spectral terms once per group of pairs and agrees with
+    /// `eval` to a few binary32 roundings (`spec/EVALUATION.md`, "Rounding"); a pair's value
+    /// never depends on the batch it comes in or on the CPU. Work that depends on the incident
+    /// direction alone (the records to blend and the blended lobe shapes) is done once per run
+    /// of pairs with the same `wi`, and the spectral basis once per wavelength for the whole
+    /// batch. Never allocates.
     ///
     /// Errors (nothing written): `wi` and `wo` have different lengths, neither being 1, or
     /// `out` holds fewer than N·`wavelengths.len()` values.

@@ -7,6 +7,7 @@
 //! batch entry point ([`super::batch`]) computes the incident side once for a run of pairs that
 //! share ωi.
 
+use super::kernel::Kernel;
 use super::lattice::{upper, Blend, Lattice, QueryFrame};
 use super::line::{line_lobes, line_sizes};
 use super::resident::{Rec, Resident};
@@ -32,7 +33,7 @@ pub(crate) struct Evaluator {
     small: bool,
     /// The stored θ range's ends with their sine and cosine: a query clamped to an end keeps
     /// its azimuth without trigonometry.
-    theta_ends: [(f64, f64, f64); 2],
+    pub(crate) theta_ends: [(f64, f64, f64); 2],
     /// The factor model shared by every incidence (`FACT`), with the file's wavelengths as its
     /// spectra's nodes, if any: evaluated at the query's own directions and added before the
     /// clamp ("Reconstruction", step 5).
@@ -43,6 +44,8 @@ pub(crate) struct Evaluator {
     pub(crate) pairs: Vec<BlendInfo>,
     /// Whether one-wavelength queries take the line path (`super::line`).
     on_line: bool,
+    /// The one-wavelength kernel of a file on the line path (`super::kernel`).
+    pub(crate) kernel: Option<Kernel>,
 }
 
 /// T*, the highest SH level and the most lobes among the records a query blends, and bit li
@@ -145,11 +148,12 @@ impl Evaluator {
                 .records
                 .iter()
                 .all(|r| line_lobes(&r.lobes.iter().map(|l| l.kind).collect::<Vec<_>>()));
-        Evaluator {
+        let mut ev = Evaluator {
             res,
             alone,
             pairs,
             on_line,
+            kernel: None,
             lattice,
             small,
             theta_ends: [end(first), end(last)],
@@ -157,7 +161,11 @@ impl Evaluator {
                 .factor
                 .as_ref()
                 .map(|_| WavelengthNodes::new(&material.wavelengths)),
+        };
+        if ev.on_line {
+            ev.kernel = Some(Kernel::new(&ev));
         }
+        ev
     }
 
     /// Whether the file holds a factor model (its pairs take [`Evaluator::eval`]'s general
@@ -201,7 +209,8 @@ impl Evaluator {
             .map_or(0, |n| 8 * n.nodes.capacity());
         let info =
             std::mem::size_of::<BlendInfo>() * (self.alone.capacity() + self.pairs.capacity());
-        self.res.heap_bytes() + self.lattice.heap_bytes() + nodes + info
+        let kernel = self.kernel.as_ref().map_or(0, Kernel::heap_bytes);
+        self.res.heap_bytes() + self.lattice.heap_bytes() + nodes + info + kernel
     }
 
     /// ρ at vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame

@@ -8,6 +8,7 @@ mod cie;
 pub mod color;
 pub mod decoder;
 mod evaluator;
+mod kernel;
 mod lattice;
 mod line;
 mod one;

@@ -5,6 +5,8 @@
 //! from +x about z. The incident direction points from the surface toward the light; the outgoing
 //! direction points toward the viewer. The mirror direction of (θ, φ) is (θ, φ + 180°).
 
+use crate::model::lanes::Lanes;
+
 /// Unit vector of a direction given in degrees.
 pub fn dir_from_deg(theta_deg: f64, phi_deg: f64) -> [f64; 3] {
     let (st, ct) = theta_deg.to_radians().sin_cos();
@@ -30,6 +32,12 @@ pub fn deg_from_dir(d: [f64; 3]) -> (f64, f64) {
 /// the decoder, which needs θ only to place a query between stored incidences; 0 for r = z = 0.
 #[inline(always)]
 pub fn polar_deg(r: f64, z: f64) -> f64 {
+    polar_lanes(Lanes([r]), Lanes([z])).0[0]
+}
+
+/// [`polar_deg`] for N directions at once, lane by lane the same operations.
+#[inline(always)]
+pub fn polar_lanes<const N: usize>(r: Lanes<N>, z: Lanes<N>) -> Lanes<N> {
     const A: [f64; 8] = [
         -0.333_331_452_8,
         0.199_935_508_5,
@@ -40,23 +48,19 @@ pub fn polar_deg(r: f64, z: f64) -> f64 {
         -0.016_165_736_7,
         0.002_866_225_7,
     ];
-    let (lo, hi) = if r <= z { (r, z) } else { (z, r) };
-    if hi <= 0.0 {
-        return 0.0;
-    }
-    let x = lo / hi;
+    let near_z = r.le(z);
+    let lo = Lanes::select(near_z, r, z);
+    let hi = Lanes::select(near_z, z, r);
+    let zero = hi.le(Lanes::splat(0.0));
+    let x = lo / Lanes::select(zero, Lanes::splat(1.0), hi);
     let x2 = x * x;
-    let mut p = A[7];
+    let mut p = Lanes::splat(A[7]);
     for &a in A[..7].iter().rev() {
         p = p * x2 + a;
     }
     let atan = x + x * x2 * p;
-    let theta = if r <= z {
-        atan
-    } else {
-        std::f64::consts::FRAC_PI_2 - atan
-    };
-    theta.to_degrees()
+    let theta = Lanes::select(near_z, atan, std::f64::consts::FRAC_PI_2 - atan);
+    Lanes::select(zero, Lanes::splat(0.0), theta.map(f64::to_degrees))
 }
 
 /// φ taken modulo 360 into [0, 360).

@@ -4,6 +4,7 @@
 
 pub mod angles;
 pub mod factor;
+pub mod lanes;
 pub mod lobes;
 pub mod material;
 pub mod precision;

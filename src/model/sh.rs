@@ -8,12 +8,23 @@
 //! Condon–Shortley phase. Evaluating sin^m θ·cos(mφ) as Re((x+iy)^m) avoids angles, so the poles
 //! and the horizon need no special case.
 
+use crate::model::lanes::Lanes;
+
 /// The highest SH level the format allows (keeps (L+1)² and the normalisation well inside f64).
 pub const MAX_SH_LEVEL: usize = 20;
 
 /// Number of coefficients for level L.
 pub const fn sh_count(level: usize) -> usize {
     (level + 1) * (level + 1)
+}
+
+/// The highest level whose functions fit in `count` values.
+pub const fn level_of(count: usize) -> usize {
+    let mut l = 0;
+    while sh_count(l + 1) <= count {
+        l += 1;
+    }
+    l
 }
 
 /// Precomputed normalisation constants for one maximum level.
@@ -96,25 +107,38 @@ impl ShBasis {
     #[inline(always)]
     pub fn eval_to_level(&self, level: usize, d: [f64; 3], out: &mut [f64]) {
         let level = level.min(self.level);
-        let [x, y, z] = d;
         let out = &mut out[..sh_count(level)];
+        self.eval_lanes(level, d.map(|c| Lanes([c])), |j, v| out[j] = v.0[0]);
+    }
+
+    /// The functions up to `level` (≤ the basis's level) at N unit vectors at once (lane i of
+    /// each coordinate is vector i): `put(j, Y_j)` for j < (level + 1)². Lane i is bit for bit
+    /// what [`ShBasis::eval_to_level`] gives for vector i (it is this computation, one lane).
+    #[inline(always)]
+    pub fn eval_lanes<const N: usize>(
+        &self,
+        level: usize,
+        d: [Lanes<N>; 3],
+        mut put: impl FnMut(usize, Lanes<N>),
+    ) {
+        let level = level.min(self.level);
+        let [x, y, z] = d;
         let (norm, ratio) = (&self.norm[..], &self.ratio[..]);
         // Y_l^{±m} from Q_l^m: K·Q for m = 0, K·Q·Re, K·Q·Im of (x + iy)^m otherwise.
-        let put =
-            |out: &mut [f64], m: usize, tri: usize, centre: usize, q: f64, cm: f64, sm: f64| {
-                let k = norm[tri];
-                if m == 0 {
-                    out[centre] = k * q;
-                } else {
-                    out[centre + m] = k * q * cm;
-                    out[centre - m] = k * q * sm;
-                }
-            };
+        let mut put = |m: usize, tri: usize, centre: usize, q: Lanes<N>, cm, sm| {
+            let kq = norm[tri] * q;
+            if m == 0 {
+                put(centre, kq);
+            } else {
+                put(centre + m, kq * cm);
+                put(centre - m, kq * sm);
+            }
+        };
         // (x + iy)^m, advanced one m at a time.
-        let (mut cm, mut sm) = (1.0f64, 0.0f64);
+        let (mut cm, mut sm) = (Lanes::splat(1.0), Lanes::splat(0.0));
         // Q_m^m = (2m−1)!!, the polynomial part of P_m^m / sin^m θ.
         let mut qmm = 1.0f64;
-        for m in 0..=level {
+        for m in 0..level + 1 {
             if m > 0 {
                 let (c, s) = (cm * x - sm * y, cm * y + sm * x);
                 cm = c;
@@ -123,24 +147,24 @@ impl ShBasis {
             }
             // Indices advanced by addition: l(l+1)/2 + m into the tables, l(l+1) into `out`.
             let (mut tri, mut centre) = (m * (m + 1) / 2 + m, m * (m + 1));
-            put(out, m, tri, centre, qmm, cm, sm);
+            put(m, tri, centre, Lanes::splat(qmm), cm, sm);
             if m == level {
                 break;
             }
             // Q_{m+1}^m = (2m+1)·z·Q_m^m, then the upward recurrence in l.
-            let mut q_prev = qmm;
+            let mut q_prev = Lanes::splat(qmm);
             let mut q = (2 * m + 1) as f64 * z * qmm;
             tri += m + 1;
             centre += 2 * (m + 1);
-            put(out, m, tri, centre, q, cm, sm);
-            for l in m + 2..=level {
+            put(m, tri, centre, q, cm, sm);
+            for l in m + 2..level + 1 {
                 tri += l;
                 centre += 2 * l;
                 let [a, b] = ratio[tri];
                 let next = a * z * q - b * q_prev;
                 q_prev = q;
                 q = next;
-                put(out, m, tri, centre, q, cm, sm);
+                put(m, tri, centre, q, cm, sm);
             }
         }
     }
