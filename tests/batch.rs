@@ -90,7 +90,7 @@ fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
 }
 
-/// One wavelength: files on a θ line take the batch kernel (`src/decode/kernel.rs`), whose sums
+/// One wavelength: files on a θ line take the batch kernel (`src/decode/kernel/`), whose sums
 /// and `exp`/`ln` are its own, so a pair's value is `eval`'s to a few binary32 roundings (as
 /// `eval` is the general path's, below); other files' are `eval`'s bit for bit. Either way a
 /// pair's value does not depend on the batch it came in: each pair alone gives the same bits.
