@@ -93,6 +93,15 @@ enum Op {
     Own { slot: u8, li: u8, kind: LobeKind },
 }
 
+/// A group's records with the spectral terms applied at one wavelength: per record slot, its
+/// SH coefficients (`p` of them) and its lobe amplitudes.
+#[derive(Debug, Clone, Copy)]
+struct Collapsed {
+    sh: [[f64; SMALL_SH]; 2],
+    amps: [Amps; 2],
+    p: [u8; 2],
+}
+
 /// A record's lobe amplitudes with the spectral terms applied at one wavelength: per lobe
 /// position, its variants' (one for a cosine power, four otherwise).
 type Amps = [[f64; 4]; LINE_LOBES];
@@ -232,35 +241,30 @@ impl Kernel {
             return fallback(ev, wi, wo, b);
         }
         let q = self.query(ev, g, &f, [t]);
-        let v = self.eval_sized::<SMALL_SH>(ev, g, b, &q);
-        v.max(Lanes::splat(0.0)).0[0] as f32
+        let c = self.collapse(ev, g, b);
+        let mut y = [Lanes::splat(0.0); SMALL_SH];
+        let s = self.sh_parts(g, q.wo, &c, &mut y);
+        self.value(ev, g, s, &c.amps, &q).max(Lanes::splat(0.0)).0[0] as f32
     }
 
-    /// ρ before the clamp at one query of group g at basis values `b`, with room for P
-    /// collapsed SH coefficients per record.
+    /// Group g's records collapsed at basis values `b`: what `one` does per pair and the
+    /// batch once per group and block.
     #[inline(always)]
-    fn eval_sized<const P: usize>(
-        &self,
-        ev: &Evaluator,
-        g: usize,
-        b: &[f64],
-        q: &Query<1>,
-    ) -> Lanes<1> {
+    fn collapse(&self, ev: &Evaluator, g: usize, b: &[f64]) -> Collapsed {
         let (r0, count) = self.records(g);
-        let level = self.groups[g].level as usize;
         let vals = &ev.res.vals[..];
-        let mut sh = [[0.0f64; P]; 2];
-        let mut amps = [[[0.0; 4]; LINE_LOBES]; 2];
-        let mut p = [0u8; 2];
+        let mut c = Collapsed {
+            sh: [[0.0; SMALL_SH]; 2],
+            amps: [[[0.0; 4]; LINE_LOBES]; 2],
+            p: [0; 2],
+        };
         for slot in 0..count {
             let k = &self.recs[r0 + slot];
-            p[slot] = k.p;
-            collapse_sh(vals, k, b, &mut sh[slot]);
-            collapse_amps(vals, k, b, &mut amps[slot]);
+            c.p[slot] = k.p;
+            collapse_sh(vals, k, b, &mut c.sh[slot]);
+            collapse_amps(vals, k, b, &mut c.amps[slot]);
         }
-        let mut y = [Lanes::splat(0.0); P];
-        let s = self.sh_parts(level, q.wo, count, p, &sh, &mut y);
-        self.value(ev, g, s, &amps, q)
+        c
     }
 
     /// `out[i]` = ρ(wi(i), wo(i), λ) for i < n at the one wavelength whose basis values are `b`
@@ -434,26 +438,15 @@ impl Kernel {
     /// One group's pairs of a block, W lanes at a time, its records collapsed once.
     #[inline(always)]
     fn run<const W: usize>(&self, ev: &Evaluator, run: Run, out: &mut [f32]) {
-        let (r0, count) = self.records(run.g);
-        let level = self.groups[run.g].level as usize;
-        let vals = &ev.res.vals[..];
-        let mut sh = [[0.0f64; SMALL_SH]; 2];
-        let mut amps = [[[0.0; 4]; LINE_LOBES]; 2];
-        let mut p = [0u8; 2];
-        for slot in 0..count {
-            let k = &self.recs[r0 + slot];
-            p[slot] = k.p;
-            collapse_sh(vals, k, run.b, &mut sh[slot]);
-            collapse_amps(vals, k, run.b, &mut amps[slot]);
-        }
+        let c = self.collapse(ev, run.g, run.b);
         // The SH values of each W pairs, overwritten up to the level's count every time.
         let mut y = [Lanes::splat(0.0); SMALL_SH];
         for chunk in run.members.chunks(W) {
             let lane = |j: usize| chunk[j.min(chunk.len() - 1)] as usize;
             let f = Frame::gather::<W>(std::array::from_fn(|j| &run.frames[lane(j)]));
             let q = self.query(ev, run.g, &f, std::array::from_fn(|j| run.ts[lane(j)]));
-            let s = self.sh_parts(level, q.wo, count, p, &sh, &mut y);
-            let v = self.value(ev, run.g, s, &amps, &q).max(Lanes::splat(0.0));
+            let s = self.sh_parts(run.g, q.wo, &c, &mut y);
+            let v = self.value(ev, run.g, s, &c.amps, &q).max(Lanes::splat(0.0));
             for (j, &at) in chunk.iter().enumerate() {
                 out[at as usize] = v.0[j] as f32;
             }
@@ -489,24 +482,24 @@ impl Kernel {
         }
     }
 
-    /// The records' SH parts Σ_j ã_j·Y_j(wo) for `count` records of `p` collapsed
-    /// coefficients `a`, the SH values into `y` (room for the level's): at level 0 ã_0·Y_0^0;
+    /// Group g's SH parts Σ_j ã_j·Y_j(wo) from its collapsed records `c`, the SH values into
+    /// `y`: at level 0 ã_0·Y_0^0;
     /// otherwise in four partial sums (j mod 4) added as (s0 + s1) + (s2 + s3). One pair and
     /// the lanes both come here, so their sums are the same bits.
     #[inline(always)]
-    fn sh_parts<const N: usize, const P: usize, const Q: usize>(
+    fn sh_parts<const N: usize>(
         &self,
-        level: usize,
+        g: usize,
         wo: [Lanes<N>; 3],
-        count: usize,
-        p: [u8; 2],
-        a: &[[f64; P]; 2],
-        y: &mut [Lanes<N>; Q],
+        c: &Collapsed,
+        y: &mut [Lanes<N>; SMALL_SH],
     ) -> [Lanes<N>; 2] {
+        let (level, count) = (self.groups[g].level as usize, self.records(g).1);
+        let (a, p) = (&c.sh, c.p);
         if level == 0 {
             return [0, 1].map(|slot| Lanes::splat(a[slot][0] * self.y0));
         }
-        let level = level.min(crate::model::sh::level_of(Q));
+        let level = level.min(crate::model::sh::level_of(SMALL_SH));
         ShBasis::shared().eval_lanes(level, wo, |j, v| {
             if let Some(y) = y.get_mut(j) {
                 *y = v;
@@ -514,7 +507,7 @@ impl Kernel {
         });
         let mut s = [Lanes::splat(0.0); 2];
         for (slot, s) in s.iter_mut().enumerate().take(count) {
-            let n = (p[slot] as usize).min(P).min(Q);
+            let n = (p[slot] as usize).min(SMALL_SH);
             let (a, y) = (&a[slot][..n], &y[..n]);
             let mut acc = [Lanes::splat(0.0); 4];
             let (a4, y4) = (a.chunks_exact(4), y.chunks_exact(4));
