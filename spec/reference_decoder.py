@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
-"""Independent reference reader and decoder of the .sbrdf format, version 1.2.
+"""Independent reference reader and decoder of the .sbrdf format, version 1.4.
 
 Version 1.1 adds to version 1.0 the wavelength range (HEAD flag bit 1, §3.1), the critical `FACT`
 chunk (the factor model, §3.7, EVALUATION.md "Factor model") and the ancillary `xval` chunk
 (held-out errors, §3.8); version 1.2 adds lobe kind 5, the anisotropic microfacet lobe
-(EVALUATION.md "Lobes", its blending in "Lobes by position"). Files without them (every 1.0
-file) are read and evaluated exactly as before.
+(EVALUATION.md "Lobes", its blending in "Lobes by position"); version 1.3 the compact records
+(`RECS`, §3.9); version 1.4 the warped tables (`WARP`, §3.10, EVALUATION.md "Warped tables"),
+whose tables, warps and σ nodes are computed once when the file is opened. Files without them
+(every 1.0 file) are read and evaluated exactly as before.
 
 Written from spec/FORMAT.md and spec/EVALUATION.md alone, without looking at the Rust
 implementation, to show that those two documents are enough to decode a file. Standard library
@@ -30,6 +32,7 @@ From Python:
 
 import argparse
 import bisect
+from array import array
 import math
 import struct
 import sys
@@ -38,6 +41,7 @@ import zlib
 SIGNATURE = b"\x89SBRDF\r\n\x1a\n"
 MAX_FILE_BYTES = 256 * 1024 * 1024  # §8: the reference reader's default size limit
 MAX_SET_DIRECTIONS = 1 << 22
+MAX_WARP_VALUES = 1 << 24  # §3.10: N·K·R² and N·G² are each at most 2^24
 
 # EVALUATION.md, "Factor model", Tables: the fixed nodes of each FACT feature code (§4).
 FACT_THETA_I_NODES = (0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 75.0, 80.0, 85.0, 88.0)
@@ -129,6 +133,29 @@ def bracket(xs, x):
         return n - 2, 1.0
     i = bisect.bisect_right(xs, x) - 1  # xs[i] <= x < xs[i+1]
     return i, (x - xs[i]) / (xs[i + 1] - xs[i])
+
+
+def lerp_nodes(values, x):
+    """Linear interpolation of values given at the nodes j/(n−1), j = 0..n−1, at x clamped to
+    [0, 1] (the last cell at x = 1): D(x) and σ of "Warped tables"."""
+    n = len(values)
+    pos = min(max(x, 0.0), 1.0) * (n - 1)
+    j = min(int(pos), n - 2)
+    f = pos - j
+    return (1.0 - f) * values[j] + f * values[j + 1]
+
+
+def table_bilinear(table, size, sx, sy):
+    """"Warped tables": a size × size table (node (r, c) at s = (c, r)/(size − 1), row-major) at
+    s clamped to [0, 1]², bilinear; the last cell at s = 1."""
+    px = min(max(sx, 0.0), 1.0) * (size - 1)
+    py = min(max(sy, 0.0), 1.0) * (size - 1)
+    c = min(int(px), size - 2)
+    r = min(int(py), size - 2)
+    fx, fy = px - c, py - r
+    o = r * size + c
+    return ((1.0 - fy) * ((1.0 - fx) * table[o] + fx * table[o + 1])
+            + fy * ((1.0 - fx) * table[o + size] + fx * table[o + size + 1]))
 
 
 # ---------------------------------------------------------------- spherical harmonics
@@ -335,6 +362,7 @@ class SbrdfFile:
         self.basis_values = None
         self.records = []
         self.fact = None  # the factor model (§3.7), when the file has a FACT chunk
+        self.warp = None  # the warped tables (§3.10), when the file has a WARP chunk
         self.xval = None  # held-out errors (§3.8), when kept
         seen_meta = seen_samp = seen_xval = seen_recs = False
         while pos < len(data):
@@ -377,7 +405,24 @@ class SbrdfFile:
                     raise malformed("%s: FACT before SBAS (§2.5)" % where)
                 if not self.isotropic:
                     raise malformed("%s: FACT in a file without the isotropic flag (§3.7)" % where)
+                if self.warp is not None:
+                    raise malformed("%s: FACT in a file with WARP (§3.10)" % where)
                 self.fact = self.parse_fact(body, where)
+            elif ctype == b"WARP":
+                # §3.10 (version 1.4): at most once, after HEAD and SBAS, before the records;
+                # only in an isotropic file without FACT
+                if self.warp is not None:
+                    raise malformed("%s: second WARP chunk (§3.10)" % where)
+                if self.records:
+                    raise malformed("%s: WARP after the records (§3.10)" % where)
+                if self.basis == 3 and self.basis_values is None:
+                    raise malformed("%s: WARP before SBAS (§3.10)" % where)
+                if not self.isotropic:
+                    raise malformed("%s: WARP in a file without the isotropic flag (§3.10)"
+                                    % where)
+                if self.fact is not None:
+                    raise malformed("%s: WARP in a file with FACT (§3.10)" % where)
+                self.warp = self.parse_warp(body, where)
             elif ctype == b"RECD":
                 if self.basis == 3 and self.basis_values is None:
                     raise malformed("%s: RECD before SBAS (§2.5)" % where)
@@ -425,6 +470,9 @@ class SbrdfFile:
         if not seen_endf:
             raise malformed("file ends without ENDF (§2.5)")
         self.build_layout()
+        if self.warp is not None:
+            self.check_empty_records()
+            self.build_warp()
 
     def parse_head(self, body, where):
         r = Reader(body, where)
@@ -750,6 +798,239 @@ class SbrdfFile:
         else:
             self.layout = "scattered"
 
+    # ------------------------------------------------ warped tables (§3.10, version 1.4)
+
+    def parse_warp(self, body, where):
+        """§3.10: the fields of WARP, checked, and its payload inflated to the N·K·R² integers
+        (kept in an array, table (i, k) at position (i·K + k)·R², each in diagonal order).
+        Placement, the isotropic flag and FACT are checked by the caller, the records once
+        ENDF has been read (check_empty_records); tables, warps and σ by build_warp."""
+        r = Reader(body, where)
+        if len(body) < 12:
+            raise malformed("%s: shorter than its 12-byte fixed part (§3.10)" % where)
+        layout, ndf_prec, grid, warp_grid, ndf_count = r.take("BBHHH")
+        (sigma_scale,) = r.take("f")
+        if layout != 1:
+            # §3.10 and §6: an unknown WARP layout makes the file unsupported
+            raise unsupported("%s: unknown layout %d (§3.10)" % (where, layout))
+        if ndf_prec not in (1, 2):
+            # §3.10 and §6: an unknown NDF precision makes the file unsupported
+            raise unsupported("%s: unknown NDF precision %d (§3.10)" % (where, ndf_prec))
+        ndf_size = 4 if ndf_prec == 1 else 2
+        if not (2 <= grid <= 64 and 3 <= warp_grid <= 256 and 2 <= ndf_count <= 4096):
+            raise malformed("%s: grid R = %d, warp_grid G = %d or ndf_count M = %d out of range "
+                            "(§3.10)" % (where, grid, warp_grid, ndf_count))
+        n, k = self.n, self.k
+        count = n * k * grid * grid  # Python integers: no overflow (§3.10 asks for 64 bits)
+        if count > MAX_WARP_VALUES or n * warp_grid * warp_grid > MAX_WARP_VALUES:
+            raise malformed("%s: N·K·R² = %d or N·G² = %d above 2^24 (§3.10)"
+                            % (where, count, n * warp_grid * warp_grid))
+        fixed = 16 + ndf_size * ndf_count + 4 * n * k
+        if len(body) < fixed:
+            raise malformed("%s: length %d, shorter than the %d bytes before the payload (§3.10)"
+                            % (where, len(body), fixed))
+        (plen,) = struct.unpack_from("<I", body, fixed - 4)
+        if not 1 <= plen <= len(body) - fixed or len(body) != fixed + plen:
+            raise malformed("%s: payload_length %d, the chunk has %d bytes after it (§3.10)"
+                            % (where, plen, len(body) - fixed))
+        if not (math.isfinite(sigma_scale) and sigma_scale > 0):
+            raise malformed("%s: sigma_scale %r not finite and > 0 (§3.10)" % (where, sigma_scale))
+        ndf = r.take("%d%s" % (ndf_count, "f" if ndf_prec == 1 else "e"), "ndf")
+        # −0 is allowed (equal to +0) for NDF values and steps: −0.0 >= 0 holds
+        if not all(math.isfinite(v) and v >= 0 for v in ndf) or not any(v > 0 for v in ndf):
+            raise malformed("%s: an NDF value not finite or < 0, or none > 0 (§3.10)" % where)
+        steps = r.take("%df" % (n * k), "steps")
+        if not all(math.isfinite(v) and v >= 0 for v in steps):
+            raise malformed("%s: a step not finite or < 0 (§3.10)" % where)
+        ints = self.inflate_warp(body[fixed:], count, where)
+        return {"R": grid, "G": warp_grid, "M": ndf_count, "c": sigma_scale,
+                "ndf": list(ndf), "steps": list(steps), "ints": ints}
+
+    @staticmethod
+    def inflate_warp(payload, count, where):
+        """§3.10, Payload: zlib → `count` zigzag LEB128 varints, with the 5·count inflate bound."""
+        bound = 5 * count  # a varint has at most 5 bytes: more output cannot be valid
+        # RFC 1950: FDICT (bit 5 of FLG) asks for a preset dictionary, which §3.10 refuses
+        # (zlib would refuse it too, lacking the dictionary; this says why)
+        if (len(payload) >= 2 and payload[0] & 0x0F == 8 and payload[1] & 0x20
+                and (payload[0] * 256 + payload[1]) % 31 == 0):
+            raise malformed("%s: payload zlib stream asks for a preset dictionary (FDICT), not a "
+                            "valid stream here (§3.10)" % where)
+        d = zlib.decompressobj()
+        try:
+            raw = d.decompress(payload, bound + 1)  # stops once more than `bound` came out
+        except zlib.error as e:
+            raise malformed("%s: payload is not a valid zlib stream: %s (§3.10)" % (where, e))
+        if len(raw) > bound:
+            raise malformed("%s: payload inflates to more than 5·N·K·R² = %d bytes (§3.10)"
+                            % (where, bound))
+        if not d.eof:
+            raise malformed("%s: payload zlib stream is truncated (§3.10)" % where)
+        if d.unused_data:
+            raise malformed("%s: %d bytes after the payload's zlib stream (§3.10)"
+                            % (where, len(d.unused_data)))
+        ints, pos, end = [], 0, len(raw)
+        append = ints.append
+        while pos < end:
+            byte = raw[pos]
+            pos += 1
+            u = byte & 0x7F
+            shift = 7
+            while byte & 0x80:
+                if shift == 35:
+                    raise malformed("%s: payload varint longer than 5 bytes (§3.10)" % where)
+                if pos == end:
+                    raise malformed("%s: payload ends inside a varint (§3.10)" % where)
+                byte = raw[pos]
+                pos += 1
+                u |= (byte & 0x7F) << shift
+                shift += 7
+            if u > 0x7FFFFFFF:  # zigzag codes of [−2^30, 2^30 − 1] are 0 … 2^31 − 1
+                raise malformed("%s: payload integer outside [-2^30, 2^30-1] (§3.10)" % where)
+            append((u >> 1) ^ -(u & 1))
+        if len(ints) < count:
+            raise malformed("%s: payload holds %d integers, N·K·R² = %d (§3.10)"
+                            % (where, len(ints), count))
+        if len(ints) > count:
+            raise malformed("%s: payload has bytes after its %d-th integer (§3.10)"
+                            % (where, count))
+        return array("l", ints)
+
+    def check_empty_records(self):
+        """§3.10: every record of a file with WARP is empty: T = 1, L_r = 0, its one SH
+        coefficient +0 (not −0), no lobes, in either precision, as RECD or RECS. (Its θp, φp,
+        rel_error and critical_angle follow §3.3's rules, checked when parsed, and play no
+        part.)"""
+        for i, rec in enumerate(self.records):
+            v = rec.sh[0][0]
+            if rec.terms != 1 or rec.level != 0 or rec.lobes or v != 0 or is_neg_zero(v):
+                raise malformed("record %d of a file with WARP is not empty (§3.10)" % i)
+
+    def build_warp(self):
+        """EVALUATION.md, "Warped tables": decode the N·K tables (inverse DCT-II), the VNDF warp
+        of each stored incidence and the M σ nodes, once. Refuses a total or σ node of 0."""
+        w = self.warp
+        R, G, M, K = w["R"], w["G"], w["M"], self.k
+        ndf = w["ndf"]
+
+        def ndf_at(x):
+            """D(x): linear between the M nodes j/(M−1), x clamped to [0, 1]."""
+            return lerp_nodes(ndf, x)
+
+        self.warp_ndf = ndf_at
+        # -- tables: T[r][c] = Σ_a Σ_b α(a) α(b) C(a, b) cos(π(2r+1)a/2R) cos(π(2c+1)b/2R)
+        cosine = [[(math.sqrt(1.0 / R) if a == 0 else math.sqrt(2.0 / R))
+                   * math.cos(math.pi * (2 * r + 1) * a / (2 * R)) for r in range(R)]
+                  for a in range(R)]  # cosine[a][r] = α(a) cos(π(2r + 1)a / 2R)
+        order = sorted(((a, b) for a in range(R) for b in range(R)),
+                       key=lambda ab: (ab[0] + ab[1], ab[0]))  # diagonal order (§3.10)
+        ints, steps = w["ints"], w["steps"]
+        tables = []
+        for i in range(self.n):
+            per_term = []
+            for k in range(K):
+                q = steps[i * K + k]
+                base = (i * K + k) * R * R
+                partial = {}  # a -> Σ_b α(b) C(a, b) cos(π(2c+1)b/2R), per column c
+                for j, (a, b) in enumerate(order):
+                    nq = ints[base + j]
+                    if nq:
+                        coef = q * nq
+                        row = partial.setdefault(a, [0.0] * R)
+                        cb = cosine[b]
+                        for c in range(R):
+                            row[c] += coef * cb[c]
+                rows = [[0.0] * R for _ in range(R)]
+                for a in sorted(partial):
+                    pa, ca = partial[a], cosine[a]
+                    for r in range(R):
+                        f = ca[r]
+                        rows[r] = [t + f * x for t, x in zip(rows[r], pa)]
+                per_term.append(array("d", [v for row in rows for v in row]))
+            tables.append(per_term)
+        self.warp_tables = tables  # tables[i][k][r·R + c]
+        # -- the VNDF's node geometry over u (x_a, y_b) = (a/(G−1), b/(G−1))
+        g1 = G - 1
+        xs = [a / g1 for a in range(G)]
+        theta_m = [x * x * (math.pi / 2) for x in xs]
+        sin_m = [math.sin(t) for t in theta_m]
+        cos_m = [math.cos(t) for t in theta_m]
+        jac = [sin_m[a] * math.pi * xs[a] * (2 * math.pi) for a in range(G)]  # sinθm·πx·2π
+        d_nodes = [ndf_at(x) for x in xs]
+        phi_m = [2 * math.pi * (b / g1) - math.pi for b in range(G)]
+        cos_phi = [math.cos(p) for p in phi_m]
+        weight = [1.0 / (2 * g1) if a in (0, g1) else 1.0 / g1 for a in range(G)]  # trapezoid
+        # m_x at node (a, b), b-major; m_z depends on a only (ωi has no y component)
+        mx = [[sin_m[a] * cos_phi[b] for a in range(G)] for b in range(G)]
+
+        def density(theta):
+            """p[b][a] = D(x_a)·max(0, ωi·m)·sinθm·πx_a·2π for ωi = (sin θ, 0, cos θ)."""
+            st, ct = math.sin(theta), math.cos(theta)
+            out = []
+            for b in range(G):
+                mxb = mx[b]
+                for a in range(G):
+                    v = st * mxb[a] + ct * cos_m[a]
+                    out.append(d_nodes[a] * v * jac[a] if v > 0 else 0.0)
+            return out
+
+        def total(p):
+            """I = Σ_b w_b Σ_a w_a p[b][a] (trapezoid rule, in that order)."""
+            return sum(weight[b] * sum(weight[a] * p[b * G + a] for a in range(G))
+                       for b in range(G))
+
+        # -- the warp of each stored incidence: normalised p, cond, row, marg
+        self.warp_thetas = [math.radians(th) for th, _ in self.incidences]
+        warps = []
+        half = 1.0 / (2 * g1)
+        for i, theta in enumerate(self.warp_thetas):
+            p = density(theta)
+            tot = total(p)
+            if not tot > 0:
+                raise malformed("WARP: the VNDF of stored incidence %d (θi = %r°) has total 0 "
+                                "(EVALUATION.md, \"Warped tables\")" % (i, self.incidences[i][0]))
+            p = [v / tot for v in p]
+            cond = [0.0] * (G * G)
+            row = [0.0] * G
+            for b in range(G):
+                acc, o = 0.0, b * G
+                for a in range(g1):
+                    acc += (p[o + a] + p[o + a + 1]) * half
+                    cond[o + a + 1] = acc
+                row[b] = acc
+            marg = [0.0] * G
+            for b in range(g1):
+                marg[b + 1] = marg[b] + (row[b] + row[b + 1]) * half
+            warps.append((array("d", p), array("d", cond), row, marg))
+        self.warp_warps = warps
+        # -- σ at the M nodes θ_j = (j/(M−1))²·π/2: σ_j = c·I(θ_j). Each total as one sum over
+        # the nodes whose factor w_a·w_b·D(x_a)·sinθm·πx_a·2π is not 0 (another summation order
+        # than the rows-then-columns of the warps' totals: the same value to rounding).
+        fac, fmx, fmz = [], [], []
+        for b in range(G):
+            for a in range(G):
+                f = weight[b] * weight[a] * d_nodes[a] * jac[a]
+                if f != 0:
+                    fac.append(f)
+                    fmx.append(mx[b][a])
+                    fmz.append(cos_m[a])
+        sigma = []
+        c_scale = w["c"]
+        for j in range(M):
+            theta = (j / (M - 1)) ** 2 * (math.pi / 2)
+            st, ct = math.sin(theta), math.cos(theta)
+            tot = 0.0
+            for f, x, z in zip(fac, fmx, fmz):
+                v = st * x + ct * z
+                if v > 0:
+                    tot += f * v
+            s = c_scale * tot
+            if s == 0:
+                raise malformed("WARP: σ node %d (θ = %r rad) is 0 (EVALUATION.md, "
+                                "\"Warped tables\")" % (j, theta))
+            sigma.append(s)
+        self.warp_sigma = sigma
+
     # ------------------------------------------------ evaluation (EVALUATION.md)
 
     def basis_at(self, lam, count):
@@ -842,6 +1123,13 @@ class SbrdfFile:
             return zero
         if not (0 <= theta_i <= 90 and 0 <= theta_o <= 90):  # steps 1 and 2
             return zero
+        if self.warp is not None:  # a file with WARP: "Warped tables" alone (§3.10)
+            # "Whose direction the tables follow": the tables are indexed by the viewing
+            # direction, so steps 1–3 and the Value are applied with the roles exchanged: the
+            # query's ωo is turned to azimuth 0 and plays the tables' incidence, the query's ωi
+            # (rotated by −φo) the other direction.
+            return self.warp_eval(theta_o, d(theta_o, 0.0), d(theta_i, phi_i - phi_o),
+                                  wavelengths)
         psi = phi_i if self.isotropic else 0.0  # step 3
         w = d(theta_o, phi_o - psi)
         blended, (ts, ps) = self.blend(theta_i, phi_i)  # step 4
@@ -881,6 +1169,96 @@ class SbrdfFile:
                 value += self.fact_at(fact, lam)
             # step 5: the series (plus F) clamped at 0
             out.append(max(0.0, value))
+        return out
+
+    def warp_inverse(self, i, t, ux, uy):
+        """"Warped tables", The warp: the inverse warp u -> s of the tables of stored incidence
+        i blended with those of i + 1 by weight t (p, cond, row and marg each blended)."""
+        G = self.warp["G"]
+        g1 = G - 1
+        px, py = ux * g1, uy * g1
+        a = min(int(px), G - 2)
+        b = min(int(py), G - 2)
+        tx, ty = px - a, py - b
+        p0, cond0, row0, marg0 = self.warp_warps[i]
+        if t != 0.0:
+            p1, cond1, row1, marg1 = self.warp_warps[i + 1]
+
+            def bl(x0, x1, j):
+                return (1.0 - t) * x0[j] + t * x1[j]
+        else:
+            p1, cond1, row1, marg1 = p0, cond0, row0, marg0
+
+            def bl(x0, x1, j):
+                return x0[j]
+
+        def lerp(x, y, f):
+            return (1.0 - f) * x + f * y
+
+        o0, o1 = b * G + a, (b + 1) * G + a
+        c0 = lerp(bl(p0, p1, o0), bl(p0, p1, o1), ty)
+        c1 = lerp(bl(p0, p1, o0 + 1), bl(p0, p1, o1 + 1), ty)
+        row_b, row_b1 = bl(row0, row1, b), bl(row0, row1, b + 1)
+        rows = lerp(row_b, row_b1, ty)
+        if rows == 0:
+            sx = 0.0
+        else:
+            sx = (lerp(bl(cond0, cond1, o0), bl(cond0, cond1, o1), ty)
+                  + tx * (c0 + (c1 - c0) * tx / 2) / g1) / rows
+        sy = bl(marg0, marg1, b) + ty * (row_b + (row_b1 - row_b) * ty / 2) / g1
+        return min(max(sx, 0.0), 1.0), min(max(sy, 0.0), 1.0)
+
+    def warp_eval(self, theta_i, wi, wo, wavelengths):
+        """"Warped tables", Value, in that section's names, which exchange the query's roles
+        ("Whose direction the tables follow"): θi in degrees and ωi = (sin θi, 0, cos θi) are
+        the query's viewing direction ωo (the tables' incidence), and ωo is the query's
+        incident direction ωi (toward the light), both after steps 1–3 of "Reconstruction"
+        (unit vectors, above the horizon, rotated so that the viewing azimuth is 0). The
+        incidence weights and σ follow the query's θo; the division is by the cosine of the
+        query's θi."""
+        zero = [0.0] * len(wavelengths)
+        # step 1: the half vector and its u
+        h = (wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2])
+        hn = math.sqrt(dot(h, h))
+        if hn == 0:
+            return zero
+        m = (h[0] / hn, h[1] / hn, h[2] / hn)
+        theta_m = math.atan2(math.sqrt(m[0] * m[0] + m[1] * m[1]), m[2])
+        phi_m = math.atan2(m[1], m[0])
+        ux = math.sqrt(theta_m / (math.pi / 2))
+        uy = (phi_m + math.pi) / (2 * math.pi)
+        uy -= math.floor(uy)
+        # step 2: incidence weights, θi clamped to the stored range
+        ths = self.warp_thetas
+        th = math.radians(theta_i)
+        if len(ths) == 1:
+            i, t = 0, 0.0
+        else:
+            tc = min(max(th, ths[0]), ths[-1])
+            i = min(bisect.bisect_right(ths, tc) - 1, len(ths) - 2)
+            t = (tc - ths[i]) / (ths[i + 1] - ths[i])
+        # step 3: the warped point; step 4: the tables there
+        sx, sy = self.warp_inverse(i, t, ux, uy)
+        R = self.warp["R"]
+        v = [table_bilinear(tab, R, sx, sy) for tab in self.warp_tables[i]]
+        if t != 0.0:
+            v = [(1.0 - t) * a + t * table_bilinear(tab, R, sx, sy)
+                 for a, tab in zip(v, self.warp_tables[i + 1])]
+        # step 5: ρ = max(0, Σ_k v_k B_k(λ) · D(u_x) / (4 σ(θi)) / cos θo), unclamped θi in σ
+        # (in the query's names: σ at the viewing θo, divided by the cosine of the light's θi)
+        cos_o = wo[2]
+        if cos_o <= 0:
+            return zero
+        ndf = self.warp_ndf(ux)
+        sigma = lerp_nodes(self.warp_sigma, math.sqrt(th / (math.pi / 2)))
+        out = []
+        for lam in wavelengths:
+            if not math.isfinite(lam):
+                out.append(0.0)
+                continue
+            b = self.basis_at(lam, self.k)
+            series = sum(vk * bk for vk, bk in zip(v, b))
+            out.append(max(0.0, series * ndf / (4 * sigma) / cos_o))
         return out
 
     def fact_tables(self, wi, wo):

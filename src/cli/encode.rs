@@ -56,6 +56,10 @@ pub enum ModelArg {
     /// One factor model shared by every incidence (isotropic inputs): for sparse, noisy
     /// measurements, predicting between the samples and between the incidences.
     Shared,
+    /// The measurement kept on its own warped grid, transform-coded (format 1.4): for one
+    /// isotropic RGL file, which `auto` also encodes this way. The error budget (--max-error,
+    /// default 1%) holds at every stored incidence's nodes.
+    Warped,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -202,6 +206,8 @@ impl EncodeOptionArgs {
                 ModelArg::Auto => ModelChoice::Auto,
                 ModelArg::Records => ModelChoice::Records,
                 ModelArg::Shared => ModelChoice::Shared,
+                // Handled before the sample-based encoder (`warped_encode`).
+                ModelArg::Warped => ModelChoice::Auto,
             },
             // Resolved by EncodeSettings::options.
             ..EncodeOptions::default()
@@ -234,6 +240,9 @@ impl EncodeOptionArgs {
 
 pub fn cmd_encode(a: EncodeArgs) -> Result<()> {
     let settings = a.options.settings()?;
+    if super::encode_warped::try_encode(&a, &settings)? {
+        return Ok(());
+    }
     let (set, report) = sbrdf::io::read_inputs_with(&a.inputs, &settings.read)?;
     let inputs: Vec<String> = a.inputs.iter().map(|p| p.display().to_string()).collect();
     // A progress bar on stderr, drawn only when it is a terminal (indicatif hides it otherwise).

@@ -3,6 +3,7 @@
 
 pub mod decode;
 pub mod encode;
+pub mod encode_warped;
 pub mod figures;
 pub mod inspect;
 pub mod parse;

@@ -33,8 +33,9 @@ pub(crate) fn eval_batch(
     if m == 0 || n == 0 {
         return;
     }
-    if ev.has_factor() {
-        // A factor model depends on each pair's own directions: nothing to share per run.
+    if ev.per_pair() {
+        // A factor model or warped tables depend on each pair's own directions: nothing to
+        // share per run.
         for (i, row) in out[..n * m].chunks_exact_mut(m).enumerate() {
             ev.eval(wi(i), wo(i), wavelengths, row);
         }

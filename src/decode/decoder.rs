@@ -42,7 +42,13 @@ impl Decoder {
         // The reader validated the material: only its resident form is kept.
         let material = read_material(bytes, limits)?;
         Ok(Decoder {
-            evaluator: Evaluator::new(&material),
+            evaluator: checked(Evaluator::new(&material)).map_err(|message| Error::Format {
+                at: crate::error::Location {
+                    offset: 0,
+                    chunk: Some(crate::format::CHUNK_WARP),
+                },
+                message,
+            })?,
             material: std::sync::OnceLock::new(),
             sampling: std::sync::OnceLock::new(),
         })
@@ -82,7 +88,8 @@ impl Decoder {
             .validate()
             .map_err(|e| Error::Parameter(format!("invalid material: {e}")))?;
         Ok(Decoder {
-            evaluator: Evaluator::new(&material),
+            evaluator: checked(Evaluator::new(&material))
+                .map_err(|e| Error::Parameter(format!("invalid material: {e}")))?,
             material: material.into(),
             sampling: std::sync::OnceLock::new(),
         })
@@ -246,6 +253,9 @@ impl Decoder {
     /// BRDF is reciprocal exactly as far as its input and its fit are (`tests/sampling.rs`
     /// reports how far).
     pub fn sample(&self, wi: [f32; 3], u: [f32; 2]) -> Option<Sample> {
+        if let Some(w) = &self.evaluator.warped {
+            return sampling::sample_warped(w, wi, u);
+        }
         sampling::sample(&self.evaluator, self.sampling_weights(), wi, u)
     }
 
@@ -253,8 +263,22 @@ impl Decoder {
     /// 0 when either is below the horizon, zero or not finite; otherwise > 0 wherever
     /// cos θo > 0. Never allocates.
     pub fn pdf(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
+        if let Some(w) = &self.evaluator.warped {
+            return sampling::pdf_warped(w, wi, wo);
+        }
         sampling::pdf(&self.evaluator, self.sampling_weights(), wi, wo)
     }
+}
+
+/// An evaluator whose warped tables could be prepared, or why not: a stored incidence whose
+/// VNDF integrates to zero, or a σ node of zero (`spec/EVALUATION.md`, "Warped tables").
+fn checked(ev: Evaluator) -> std::result::Result<Evaluator, String> {
+    if ev.res.warped.is_some() && ev.warped.is_none() {
+        return Err(
+            "warped tables whose NDF leaves a stored incidence's VNDF or a σ node at zero".into(),
+        );
+    }
+    Ok(ev)
 }
 
 /// Heap bytes of a material held in memory (capacities).

@@ -11,6 +11,7 @@ use super::kernel::Kernel;
 use super::lattice::{upper, Blend, Lattice, QueryFrame};
 use super::line::{line_lobes, line_sizes};
 use super::resident::{Rec, Resident};
+use super::warped::WarpedEval;
 use crate::model::angles::phi_delta;
 use crate::model::angles::{angle_between, deg_from_dir, dir_from_deg, dot, mirror_deg, polar_deg};
 use crate::model::factor::{FeatureValues, MAX_COMPONENTS, MAX_RANK};
@@ -46,6 +47,8 @@ pub(crate) struct Evaluator {
     on_line: bool,
     /// The one-wavelength kernel of a file on the line path (`super::kernel`).
     pub(crate) kernel: Option<Kernel>,
+    /// Warped tables (`WARP`): when present they answer every query (the records are empty).
+    pub(crate) warped: Option<WarpedEval>,
 }
 
 /// T*, the highest SH level and the most lobes among the records a query blends, and bit li
@@ -143,6 +146,7 @@ impl Evaluator {
         };
         let on_line = matches!(lattice, Lattice::Theta(_))
             && material.factor.is_none()
+            && material.warped.is_none()
             && line_sizes(material.sh_level, material.spectral.terms)
             && material
                 .records
@@ -154,6 +158,10 @@ impl Evaluator {
             pairs,
             on_line,
             kernel: None,
+            warped: material.warped.as_ref().and_then(|w| {
+                let thetas: Vec<f32> = material.records.iter().map(|r| r.theta_i).collect();
+                WarpedEval::new(w, &thetas, material.spectral.terms)
+            }),
             lattice,
             small,
             theta_ends: [end(first), end(last)],
@@ -168,10 +176,33 @@ impl Evaluator {
         ev
     }
 
-    /// Whether the file holds a factor model (its pairs take [`Evaluator::eval`]'s general
-    /// path).
-    pub(crate) fn has_factor(&self) -> bool {
-        self.res.factor.is_some()
+    /// Whether the file's pairs are answered one by one through [`Evaluator::eval`] (a factor
+    /// model or warped tables: nothing depends on the incident direction alone).
+    pub(crate) fn per_pair(&self) -> bool {
+        self.res.factor.is_some() || self.warped.is_some()
+    }
+
+    /// ρ of warped tables at unit vectors (z ≥ 0), each wavelength into `out` through `put`
+    /// (the value before the clamp; 0 where ρ is 0).
+    #[inline]
+    fn warped_values(
+        &self,
+        w: &WarpedEval,
+        wi: [f64; 3],
+        wo: [f64; 3],
+        mut put: impl FnMut(&[f64]),
+    ) {
+        let k = self.res.spectrum.terms();
+        let mut small = [0.0f64; SMALL_TERMS];
+        let mut large;
+        let c: &mut [f64] = if k <= SMALL_TERMS {
+            &mut small[..k]
+        } else {
+            large = [0.0f64; MAX_TERMS];
+            &mut large[..k]
+        };
+        w.coefficients(wi, wo, c);
+        put(c);
     }
 
     /// The factor model's angular terms at unit vectors `wi`, `wo` (any common frame: its
@@ -210,7 +241,8 @@ impl Evaluator {
         let info =
             std::mem::size_of::<BlendInfo>() * (self.alone.capacity() + self.pairs.capacity());
         let kernel = self.kernel.as_ref().map_or(0, Kernel::heap_bytes);
-        self.res.heap_bytes() + self.lattice.heap_bytes() + nodes + info + kernel
+        let warped = self.warped.as_ref().map_or(0, WarpedEval::heap_bytes);
+        self.res.heap_bytes() + self.lattice.heap_bytes() + nodes + info + kernel + warped
     }
 
     /// ρ at vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame
@@ -224,6 +256,12 @@ impl Evaluator {
             out.fill(0.0);
             return;
         };
+        if let Some(w) = &self.warped {
+            self.warped_values(w, wi, wo, |c| {
+                self.res.spectrum.eval_clamped(c, wavelengths, out)
+            });
+            return;
+        }
         if self.on_line {
             let mut b = [0.0f64; SMALL_TERMS];
             let b = &mut b[..self.res.spectrum.terms()];
@@ -335,6 +373,26 @@ impl Evaluator {
         } else {
             (incident.1, dir_from_deg(outgoing.0, outgoing.1))
         };
+        if let Some(w) = &self.warped {
+            // The vectors as given: warped tables turn the query by the viewing direction's
+            // azimuth, not the light's ("Warped tables"), and at a viewing direction on the
+            // pole by none.
+            let (wi, wo) = (
+                dir_from_deg(incident.0, incident.1),
+                dir_from_deg(outgoing.0, outgoing.1),
+            );
+            self.warped_values(w, wi, wo, |c| {
+                for (o, &l) in out.iter_mut().zip(wavelengths) {
+                    let v = if l.is_finite() {
+                        self.res.spectrum.dot(c, l)
+                    } else {
+                        0.0
+                    };
+                    *o = if clamp { v.max(0.0) } else { v };
+                }
+            });
+            return;
+        }
         let inc = self.incident(incident.0, phi, None);
         // The factor model sees the query as it is (its features are clamped to the ranges it
         // was fitted on); the records, the nearest stored incidences.

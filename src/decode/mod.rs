@@ -14,6 +14,8 @@ mod line;
 mod one;
 mod resident;
 pub mod sampling;
+mod warped;
 
 pub use decoder::Decoder;
 pub use sampling::Sample;
+pub(crate) use warped::vndf_totals;

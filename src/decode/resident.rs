@@ -13,6 +13,7 @@ use crate::model::material::{DirectionSet, MAX_LOBES};
 use crate::model::material::{IncidentRecord, Lobe, LobeKind, Material, SamplePositions};
 use crate::model::sh::sh_count;
 use crate::model::spectral::{SpectralSpace, SpectrumEvaluator};
+use crate::model::warped::WarpedModel;
 use crate::model::Precision;
 
 /// One record: where its values are, its sizes, and the fields a [`Material`] needs back.
@@ -73,6 +74,8 @@ pub(crate) struct Resident {
     /// as read.
     pub factor: Option<FactorModel>,
     pub held_out: Option<HeldOutErrors>,
+    /// Warped tables (`WARP`) as read (their decoded form lives in the evaluator).
+    pub warped: Option<WarpedModel>,
 }
 
 impl Resident {
@@ -146,6 +149,7 @@ impl Resident {
             sample_positions: m.sample_positions.clone(),
             factor: m.factor.clone(),
             held_out: m.held_out.clone(),
+            warped: m.warped.clone(),
         }
     }
 
@@ -226,6 +230,7 @@ impl Resident {
             sample_positions: self.sample_positions.clone(),
             factor: self.factor.clone(),
             held_out: self.held_out.clone(),
+            warped: self.warped.clone(),
         }
     }
 
@@ -257,6 +262,9 @@ impl Resident {
                 .held_out
                 .as_ref()
                 .map_or(0, |h| 4 * (h.rel.capacity() + h.log.capacity()))
+            + self.warped.as_ref().map_or(0, |w| {
+                4 * (w.ndf.capacity() + w.steps.capacity() + w.levels.capacity())
+            })
     }
 }
 

@@ -650,6 +650,36 @@ pub(crate) fn sample(
     (pdf > 0.0 && pdf.is_finite()).then_some(Sample { wo, pdf })
 }
 
+/// [`sample`] for warped tables (`spec/EVALUATION.md`, "Warped tables"): the density is
+/// [`pdf_warped`] at the direction as returned.
+pub(crate) fn sample_warped(
+    w: &super::warped::WarpedEval,
+    wi: [f32; 3],
+    u: [f32; 2],
+) -> Option<Sample> {
+    if !(u[0].is_finite() && u[1].is_finite()) {
+        return None;
+    }
+    let wi = upper(wi)?;
+    let u = [
+        (u[0] as f64).clamp(0.0, ONE_BELOW),
+        (u[1] as f64).clamp(0.0, ONE_BELOW),
+    ];
+    let d = w.sample(wi, u)?;
+    let wo = [d[0] as f32, d[1] as f32, d[2] as f32];
+    let back = upper(wo)?;
+    let pdf = w.pdf(wi, back) as f32;
+    (pdf > 0.0 && pdf.is_finite()).then_some(Sample { wo, pdf })
+}
+
+/// [`pdf`] for warped tables.
+pub(crate) fn pdf_warped(w: &super::warped::WarpedEval, wi: [f32; 3], wo: [f32; 3]) -> f32 {
+    let (Some(wi), Some(wo)) = (upper(wi), upper(wo)) else {
+        return 0.0;
+    };
+    w.pdf(wi, wo) as f32
+}
+
 pub(crate) fn pdf(dec: &Evaluator, sw: &SamplingWeights, wi: [f32; 3], wo: [f32; 3]) -> f32 {
     let (Some(wi), Some(wo)) = (upper(wi), upper(wo)) else {
         return 0.0;

@@ -632,6 +632,7 @@ pub fn encode_records_with_progress(
         .then(|| sample_positions(&set.incidences)),
         factor: None,
         held_out,
+        warped: None,
     };
     // The version the file will declare (the lowest whose features it uses), so that the
     // material read back from it is this one.

@@ -12,6 +12,7 @@ pub mod settings;
 pub mod shared;
 pub mod subset;
 pub mod validate;
+pub mod warped;
 
 pub use encoder::{encode, EncodeOptions, Encoded, ModelChoice};
 pub use samples::{IncidentSamples, SampleSet};

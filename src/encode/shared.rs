@@ -119,6 +119,7 @@ pub fn encode_shared(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
             log: per.iter().map(|s| stored_error(s.log())).collect(),
         }),
         factor: Some(fit.model),
+        warped: None,
     };
     // The version the file will declare, so that the material read back from it is this one.
     material.version_minor = crate::format::written_version(&material).0;

@@ -8,6 +8,7 @@
 
 mod read;
 mod read_records;
+mod warp_chunk;
 mod write;
 
 pub use read::read_material;
@@ -17,11 +18,12 @@ pub use write::{f16_scale, quantize_record_f16, write_material, written_version}
 /// line-ending translation, 0x1A stops `type` on old systems (PNG's design).
 pub const SIGNATURE: [u8; 10] = [0x89, b'S', b'B', b'R', b'D', b'F', 0x0D, 0x0A, 0x1A, 0x0A];
 pub const VERSION_MAJOR: u16 = 1;
-/// The newest minor version this crate reads and writes. A file is written as 1.3 when its
+/// The newest minor version this crate reads and writes. A file is written as 1.4 when it holds
+/// warped tables (`WARP`), as 1.3 when its
 /// records are compact (one `RECS` chunk), as 1.2 when it holds an anisotropic microfacet lobe
 /// (kind 5), as 1.1 when it uses a 1.1 feature (a wavelength range, [`FLAG_WAVELENGTH_RANGE`],
 /// or a factor model, `FACT`); otherwise it is 1.0, byte for byte.
-pub const VERSION_MINOR: u16 = 3;
+pub const VERSION_MINOR: u16 = 4;
 
 /// `HEAD` flag bit 0: only φi = 0 is stored; other azimuths are answered by rotation.
 pub const FLAG_ISOTROPIC: u32 = 1;
@@ -58,6 +60,8 @@ pub const CHUNK_META: [u8; 4] = *b"meta";
 pub const CHUNK_SAMP: [u8; 4] = *b"samp";
 pub const CHUNK_FACT: [u8; 4] = *b"FACT";
 pub const CHUNK_XVAL: [u8; 4] = *b"xval";
+/// Warped tables (format 1.4, §3.10).
+pub const CHUNK_WARP: [u8; 4] = *b"WARP";
 /// The minor version of files that use a 1.1 feature (a factor model); others are written as 1.0.
 pub const VERSION_MINOR_FACTOR: u16 = 1;
 /// The minor version of files that hold an anisotropic microfacet lobe (kind 5).
@@ -65,6 +69,8 @@ pub const VERSION_MINOR_ANISO: u16 = 2;
 /// The minor version of files whose records are compact (`RECS`); the writer uses them whenever
 /// the material allows 1.3.
 pub const VERSION_MINOR_COMPACT: u16 = 3;
+/// The minor version of files with warped tables (`WARP`); their records are compact.
+pub const VERSION_MINOR_WARP: u16 = 4;
 
 pub(crate) const HEAD_FIXED: usize = 40;
 pub(crate) const RECD_FIXED: usize = 40;

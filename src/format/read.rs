@@ -405,6 +405,7 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
     let mut seen_samp = false;
     let mut table = None;
     let mut factor = None;
+    let mut warped = None;
     let (mut held_out, mut seen_xval) = (None, false);
     let mut seen_recs = false;
     loop {
@@ -534,6 +535,23 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                 }
                 factor = Some(read_factor(&mut f, h.wavelengths.len())?);
             }
+            (&CHUNK_WARP, Some(h)) => {
+                if warped.is_some()
+                    || !records.is_empty()
+                    || (h.spectral.basis == SpectralBasis::Tabulated && table.is_none())
+                {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "WARP must appear once, after SBAS and before the records".into(),
+                    ));
+                }
+                warped = Some(super::warp_chunk::read_warped(
+                    &mut f,
+                    h.incidences.len(),
+                    h.spectral.terms,
+                )?);
+            }
             (&CHUNK_XVAL, Some(h)) => {
                 if seen_xval {
                     return Err(malformed(pos, Some(kind), "a second xval chunk".into()));
@@ -660,6 +678,7 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
         sample_positions: samples.flatten(),
         factor,
         held_out,
+        warped,
     };
     m.validate()
         .map_err(|message| malformed(SIGNATURE.len(), None, message))?;

@@ -65,6 +65,10 @@ fn push_chunk(out: &mut Vec<u8>, kind: [u8; 4], data: &[u8]) {
 /// written as 1.0, byte for byte. Reading the file back gives this minor version.
 pub fn written_version(m: &Material) -> (u16, bool) {
     let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
+    if m.warped.is_some() {
+        // Warped tables are a 1.4 feature whatever the material asks, as FACT is 1.1's.
+        return (VERSION_MINOR_WARP, is_wavelength_range(&m.wavelengths));
+    }
     if m.version_minor >= VERSION_MINOR_COMPACT {
         return (VERSION_MINOR_COMPACT, range);
     }
@@ -137,6 +141,9 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     }
     if let Some(f) = &m.factor {
         push_chunk(&mut out, CHUNK_FACT, &factor_chunk(f));
+    }
+    if let Some(w) = &m.warped {
+        push_chunk(&mut out, CHUNK_WARP, &super::warp_chunk::warp_chunk(w));
     }
     if let Some(meta) = &m.metadata {
         push_chunk(&mut out, CHUNK_META, meta.as_bytes());

@@ -7,6 +7,7 @@ use crate::model::factor::FactorModel;
 use crate::model::precision::Precision;
 use crate::model::sh::{sh_count, MAX_SH_LEVEL};
 use crate::model::spectral::SpectralSpace;
+use crate::model::warped::WarpedModel;
 
 /// Most spectral terms a file may use (bounds the decoder's stack buffers).
 pub const MAX_TERMS: usize = 256;
@@ -189,6 +190,36 @@ pub struct IncidentRecord {
     pub lobes: Vec<Lobe>,
 }
 
+impl IncidentRecord {
+    /// The empty record of a file with warped tables (`FORMAT.md` §3.10) at incidence (θi, φi):
+    /// one term, SH level 0, a +0 coefficient, no lobes, `f32`.
+    pub fn empty(theta_i: f32, phi_i: f32) -> Self {
+        IncidentRecord {
+            terms: 1,
+            sh_level: 0,
+            precision: Precision::F32,
+            theta_i,
+            phi_i,
+            theta_p: 0.0,
+            phi_p: 0.0,
+            rel_error: 0.0,
+            critical_angle: 0.0,
+            sh: vec![0.0],
+            lobes: Vec::new(),
+        }
+    }
+
+    /// Whether this is an empty record in the sense of [`IncidentRecord::empty`] (any incidence,
+    /// peak and error fields).
+    pub fn is_empty(&self) -> bool {
+        self.terms == 1
+            && self.sh_level == 0
+            && self.sh.len() == 1
+            && self.sh[0].to_bits() == 0
+            && self.lobes.is_empty()
+    }
+}
+
 /// Outgoing directions the encoder saw, so `decode` can write the reconstruction there.
 #[derive(Debug, Clone, PartialEq)]
 pub enum DirectionSet {
@@ -268,6 +299,9 @@ pub struct Material {
     pub factor: Option<FactorModel>,
     /// The encoder's held-out error per record (`xval`), beside each record's fit error.
     pub held_out: Option<HeldOutErrors>,
+    /// Warped tables (`WARP`, format 1.4): the measurement on its own parameterisation; the
+    /// records of such a file are empty.
+    pub warped: Option<WarpedModel>,
 }
 
 /// How a record's held-out error was measured (`FORMAT.md`, `xval`).
@@ -288,6 +322,23 @@ pub struct HeldOutErrors {
 }
 
 impl Material {
+    /// The rules of `FORMAT.md` §3.10 a file with warped tables keeps beside the chunk's own.
+    fn validate_warped(&self, w: &WarpedModel) -> Result<(), String> {
+        if !self.isotropic {
+            return Err("warped tables need an isotropic file".into());
+        }
+        if self.factor.is_some() {
+            return Err("a file with warped tables cannot also hold a factor model".into());
+        }
+        if let Some((i, _)) = self.records.iter().enumerate().find(|(_, r)| !r.is_empty()) {
+            return Err(format!(
+                "record {i} of a file with warped tables is not empty (one term, SH level 0, \
+                 a zero coefficient, no lobes)"
+            ));
+        }
+        w.validate(self.records.len(), self.spectral.terms)
+    }
+
     pub fn sh_count(&self) -> usize {
         sh_count(self.sh_level)
     }
@@ -437,6 +488,9 @@ impl Material {
                 return Err("a factor model needs an isotropic file".into());
             }
             f.validate(self.wavelengths.len())?;
+        }
+        if let Some(w) = &self.warped {
+            self.validate_warped(w)?;
         }
         if let Some(h) = &self.held_out {
             if h.rel.len() != self.records.len() || h.log.len() != self.records.len() {

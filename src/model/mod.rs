@@ -10,6 +10,7 @@ pub mod material;
 pub mod precision;
 pub mod sh;
 pub mod spectral;
+pub mod warped;
 
 pub use material::{IncidentRecord, Lobe, LobeKind, Material};
 pub use precision::Precision;

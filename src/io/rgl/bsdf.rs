@@ -316,6 +316,31 @@ impl RglBsdf {
         })
     }
 
+    /// What warped tables keep of an isotropic file (`spec/FORMAT.md` §3.10): the NDF and σ
+    /// along u_x (their first row; `None` when the rows differ, as in an anisotropic NDF, or
+    /// the file has no `jacobian` flag) and the VNDF grid side (`None` unless square).
+    pub fn isotropic_warp_parts(&self) -> Option<(Vec<f32>, Vec<f32>, usize)> {
+        let (nw, nh) = self.ndf_wh;
+        let (sw, sh) = self.sigma_wh;
+        let (vw, vh) = self.vndf_wh;
+        if !self.isotropic || !self.jacobian || vw != vh || self.phi_i.len() != 1 {
+            return None;
+        }
+        let same_rows =
+            |v: &[f32], w: usize, h: usize| (1..h).all(|y| v[y * w..(y + 1) * w] == v[..w]);
+        if !same_rows(&self.ndf, nw, nh) || !same_rows(&self.sigma, sw, sh) {
+            return None;
+        }
+        Some((self.ndf[..nw].to_vec(), self.sigma[..sw].to_vec(), vw))
+    }
+
+    /// The stored values of incidence (theta_index, phi_index): channel-major, then row, column.
+    pub fn values_at(&self, t: usize, p: usize) -> &[f32] {
+        let (r, nc) = (self.res, self.channel_count());
+        let base = (p * self.theta_i.len() + t) * nc * r * r;
+        &self.values[base..base + nc * r * r]
+    }
+
     pub fn channel_count(&self) -> usize {
         match &self.channels {
             Channels::Rgb => 3,

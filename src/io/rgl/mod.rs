@@ -46,6 +46,7 @@ mod bsdf;
 mod tensor;
 mod upsample;
 mod warp;
+mod warped;
 
 #[cfg(test)]
 mod tests;
@@ -55,6 +56,7 @@ pub use bsdf::{
 };
 pub use tensor::{write_tensor, DType, FieldInfo, RglError, TensorFile};
 pub use upsample::{spectrum_to_linear_srgb, Fit, SigmoidSpectrum, Upsampler};
+pub use warped::{read_warped, WarpedRead};
 
 use crate::encode::samples::{ReadOptions, ReadReport, RgbToSpectrum};
 use crate::error::{Error, Result};

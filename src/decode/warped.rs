@@ -1,0 +1,447 @@
+//! Evaluation and sampling of warped tables (`spec/EVALUATION.md`, "Warped tables"): the
+//! tables decoded once at open, the VNDF warp of every stored incidence and the σ nodes rebuilt
+//! from the stored NDF, then per query the inverse warp of the half vector, blended between the
+//! two stored incidences around θi as Mitsuba's `measured` plugin blends its slices.
+
+use crate::model::warped::{half_vector, jacobian, lerp_nodes, ndf_at, WarpedModel};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// The share of cosine-weighted hemisphere sampling in the proposal (as for records:
+/// [`super::sampling::MIN_COSINE_WEIGHT`]): the density stays positive wherever cos θo > 0.
+const COSINE_SHARE: f64 = super::sampling::MIN_COSINE_WEIGHT;
+
+/// A warped-table material ready for queries.
+#[derive(Debug, Clone)]
+pub(crate) struct WarpedEval {
+    /// Table side R, VNDF grid side G, terms K.
+    r: usize,
+    g: usize,
+    k: usize,
+    /// Stored incidences θ_i (radians), increasing.
+    theta: Vec<f64>,
+    ndf: Vec<f32>,
+    /// σ at the M nodes x_j = j/(M−1) of √(θ/(π/2)).
+    sigma: Vec<f64>,
+    /// Tables (i, k) at (i·K + k)·R², row-major (rows along s_y). Binary64, as the spec asks of
+    /// evaluation: in binary32 the inverse warp near the horizon moved values by up to 2·10⁻⁴.
+    tables: Vec<f64>,
+    /// Per stored incidence, the normalised density p (G²), its conditional integrals (G²), row
+    /// totals (G) and marginal (G).
+    p: Vec<f64>,
+    cond: Vec<f64>,
+    row: Vec<f64>,
+    marg: Vec<f64>,
+}
+
+/// The blend of two stored incidences' warp tables: index `a` weighted 1 − t, `b` weighted t.
+#[derive(Clone, Copy)]
+struct Slices {
+    a: usize,
+    b: usize,
+    t: f64,
+}
+
+impl Slices {
+    #[inline]
+    fn mix64(&self, v: &[f64], stride: usize, at: usize) -> f64 {
+        let x = v[self.a * stride + at];
+        let y = v[self.b * stride + at];
+        x + (y - x) * self.t
+    }
+}
+
+/// The per-node factor D(x_a)·sin θm·π x_a·2π and the half vectors of a G × G grid.
+struct Grid {
+    factor: Vec<f64>,
+    m: Vec<[f64; 3]>,
+    g: usize,
+}
+
+impl Grid {
+    fn new(ndf: &[f32], g: usize) -> Self {
+        let mut factor = Vec::with_capacity(g * g);
+        let mut m = Vec::with_capacity(g * g);
+        let step = 1.0 / (g - 1) as f64;
+        for b in 0..g {
+            for a in 0..g {
+                let (x, y) = (a as f64 * step, b as f64 * step);
+                let (h, st) = half_vector(x, y);
+                factor.push(ndf_at(ndf, x) * jacobian(x, st));
+                m.push(h);
+            }
+        }
+        Grid { factor, m, g }
+    }
+
+    /// The unnormalised VNDF density at incidence θ (radians) into `p`; returns its total
+    /// (trapezoid rule, rows of a then over b).
+    fn density(&self, theta: f64, p: &mut [f64]) -> f64 {
+        let g = self.g;
+        let (s, c) = theta.sin_cos();
+        let w = |i: usize| {
+            if i == 0 || i == g - 1 {
+                0.5 / (g - 1) as f64
+            } else {
+                1.0 / (g - 1) as f64
+            }
+        };
+        let mut total = 0.0;
+        for b in 0..g {
+            let mut row = 0.0;
+            for a in 0..g {
+                let m = self.m[b * g + a];
+                let v = self.factor[b * g + a] * (s * m[0] + c * m[2]).max(0.0);
+                p[b * g + a] = v;
+                row += w(a) * v;
+            }
+            total += w(b) * row;
+        }
+        total
+    }
+}
+
+/// The VNDF totals I(θ) of `spec/EVALUATION.md`, "Warped tables", for an NDF on a G × G grid
+/// at each θ (radians): what σ is c times (the encoder finds c from a measurement's own σ).
+pub(crate) fn vndf_totals(ndf: &[f32], g: usize, thetas: &[f64]) -> Vec<f64> {
+    let grid = Grid::new(ndf, g);
+    let mut p = vec![0.0; g * g];
+    thetas.iter().map(|&t| grid.density(t, &mut p)).collect()
+}
+
+impl WarpedEval {
+    /// Prepares a validated model for `thetas_deg` (HEAD's θi) and `k` terms. `None` when a
+    /// stored incidence's VNDF or a σ node is zero (the reader refuses such files).
+    pub(crate) fn new(w: &WarpedModel, thetas_deg: &[f32], k: usize) -> Option<Self> {
+        let (g, n, m) = (w.warp_grid, thetas_deg.len(), w.ndf.len());
+        let theta: Vec<f64> = thetas_deg
+            .iter()
+            .map(|&t| (t as f64).to_radians())
+            .collect();
+        let grid = Grid::new(&w.ndf, g);
+        let mut scratch = vec![0.0; g * g];
+        let mut sigma = Vec::with_capacity(m);
+        for j in 0..m {
+            let x = j as f64 / (m - 1) as f64;
+            let total = grid.density(x * x * FRAC_PI_2, &mut scratch);
+            let s = w.sigma_scale as f64 * total;
+            if !(s > 0.0 && s.is_finite()) {
+                return None;
+            }
+            sigma.push(s);
+        }
+        let (mut p, mut cond) = (Vec::with_capacity(n * g * g), Vec::with_capacity(n * g * g));
+        let (mut row, mut marg) = (Vec::with_capacity(n * g), Vec::with_capacity(n * g));
+        let half = 0.5 / (g - 1) as f64;
+        for &t in &theta {
+            let total = grid.density(t, &mut scratch);
+            if !(total > 0.0 && total.is_finite()) {
+                return None;
+            }
+            let inv = 1.0 / total;
+            scratch.iter_mut().for_each(|v| *v *= inv);
+            let mut rows = vec![0.0; g];
+            for b in 0..g {
+                let mut acc = 0.0;
+                cond.push(0.0);
+                for a in 1..g {
+                    acc += half * (scratch[b * g + a - 1] + scratch[b * g + a]);
+                    cond.push(acc);
+                }
+                rows[b] = acc;
+            }
+            let mut mg = 0.0;
+            marg.push(0.0);
+            for b in 1..g {
+                mg += half * (rows[b - 1] + rows[b]);
+                marg.push(mg);
+            }
+            row.extend_from_slice(&rows);
+            p.extend_from_slice(&scratch);
+        }
+        let tables = w.decode_tables();
+        Some(WarpedEval {
+            r: w.grid,
+            g,
+            k,
+            theta,
+            ndf: w.ndf.clone(),
+            sigma,
+            tables,
+            p,
+            cond,
+            row,
+            marg,
+        })
+    }
+
+    pub(crate) fn heap_bytes(&self) -> usize {
+        8 * (self.theta.capacity() + self.sigma.capacity() + self.row.capacity())
+            + 8 * (self.marg.capacity()
+                + self.tables.capacity()
+                + self.p.capacity()
+                + self.cond.capacity())
+            + 4 * self.ndf.capacity()
+    }
+
+    /// The stored incidences around θ (radians) and the weight of the upper one.
+    #[inline]
+    fn slices(&self, theta: f64) -> Slices {
+        let n = self.theta.len();
+        if n == 1 {
+            return Slices { a: 0, b: 0, t: 0.0 };
+        }
+        let th = theta.clamp(self.theta[0], self.theta[n - 1]);
+        let mut i = 0;
+        while i + 2 < n && self.theta[i + 1] <= th {
+            i += 1;
+        }
+        let t = (th - self.theta[i]) / (self.theta[i + 1] - self.theta[i]);
+        Slices {
+            a: i,
+            b: i + 1,
+            t: t.clamp(0.0, 1.0),
+        }
+    }
+
+    /// The inverse warp: half-vector parameter u → warped point s, with blended tables.
+    #[inline]
+    fn invert(&self, sl: Slices, ux: f64, uy: f64) -> (f64, f64) {
+        let g = self.g;
+        let gg = g * g;
+        let n1 = (g - 1) as f64;
+        let fx = ux.clamp(0.0, 1.0) * n1;
+        let fy = uy.clamp(0.0, 1.0) * n1;
+        let a = (fx.floor() as usize).min(g - 2);
+        let b = (fy.floor() as usize).min(g - 2);
+        let (tx, ty) = (fx - a as f64, fy - b as f64);
+        let p = |bb: usize, aa: usize| sl.mix64(&self.p, gg, bb * g + aa);
+        let c0 = lerp(p(b, a), p(b + 1, a), ty);
+        let c1 = lerp(p(b, a + 1), p(b + 1, a + 1), ty);
+        let before = lerp(
+            sl.mix64(&self.cond, gg, b * g + a),
+            sl.mix64(&self.cond, gg, (b + 1) * g + a),
+            ty,
+        );
+        let within = tx * (c0 + 0.5 * (c1 - c0) * tx) / n1;
+        let (r0, r1) = (sl.mix64(&self.row, g, b), sl.mix64(&self.row, g, b + 1));
+        let total = lerp(r0, r1, ty);
+        let sx = if total > 0.0 {
+            (before + within) / total
+        } else {
+            0.0
+        };
+        let sy = sl.mix64(&self.marg, g, b) + ty * (r0 + 0.5 * (r1 - r0) * ty) / n1;
+        (sx.clamp(0.0, 1.0), sy.clamp(0.0, 1.0))
+    }
+
+    /// The blended, normalised density over u at (ux, uy).
+    #[inline]
+    fn density_u(&self, sl: Slices, ux: f64, uy: f64) -> f64 {
+        let g = self.g;
+        let n1 = (g - 1) as f64;
+        let fx = ux.clamp(0.0, 1.0) * n1;
+        let fy = uy.clamp(0.0, 1.0) * n1;
+        let a = (fx.floor() as usize).min(g - 2);
+        let b = (fy.floor() as usize).min(g - 2);
+        let (tx, ty) = (fx - a as f64, fy - b as f64);
+        let p = |bb: usize, aa: usize| sl.mix64(&self.p, g * g, bb * g + aa);
+        lerp(
+            lerp(p(b, a), p(b, a + 1), tx),
+            lerp(p(b + 1, a), p(b + 1, a + 1), tx),
+            ty,
+        )
+    }
+
+    /// The forward warp: uniform (sx, sy) → half-vector parameter u, with blended tables.
+    fn warp(&self, sl: Slices, sx: f64, sy: f64) -> (f64, f64) {
+        let g = self.g;
+        let gg = g * g;
+        let n1 = (g - 1) as f64;
+        let marg = |b: usize| sl.mix64(&self.marg, g, b);
+        let b = interval(g, sy, marg);
+        let (r0, r1) = (sl.mix64(&self.row, g, b), sl.mix64(&self.row, g, b + 1));
+        let ty = solve_segment((sy - marg(b)) * n1, r0, r1);
+        let target = sx * lerp(r0, r1, ty);
+        let crow = |a: usize| {
+            lerp(
+                sl.mix64(&self.cond, gg, b * g + a),
+                sl.mix64(&self.cond, gg, (b + 1) * g + a),
+                ty,
+            )
+        };
+        let a = interval(g, target, crow);
+        let p = |bb: usize, aa: usize| sl.mix64(&self.p, gg, bb * g + aa);
+        let c0 = lerp(p(b, a), p(b + 1, a), ty);
+        let c1 = lerp(p(b, a + 1), p(b + 1, a + 1), ty);
+        let tx = solve_segment((target - crow(a)) * n1, c0, c1);
+        ((a as f64 + tx) / n1, (b as f64 + ty) / n1)
+    }
+
+    /// The query turned so that its incident azimuth is 0 (the tables' frame), with θi.
+    #[inline]
+    fn frame(wi: [f64; 3], wo: [f64; 3]) -> ([f64; 3], [f64; 3], f64) {
+        let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
+        let (c, s) = if r > 0.0 {
+            (wi[0] / r, wi[1] / r)
+        } else {
+            (1.0, 0.0)
+        };
+        let wi2 = [r, 0.0, wi[2]];
+        let wo2 = [c * wo[0] + s * wo[1], -s * wo[0] + c * wo[1], wo[2]];
+        (wi2, wo2, r.atan2(wi[2]))
+    }
+
+    /// The blended table values v_k times D(u_x)/(4σ(θv))/cos θi: the spectral coefficients of
+    /// ρ at unit vectors `wi` (toward the light), `wo` (toward the viewer), z ≥ 0, into `c` (K
+    /// values). The tables are indexed by the viewing direction, as RGL files and Mitsuba's
+    /// `measured` plugin index them (`spec/EVALUATION.md`, "Warped tables"): the roles of the two
+    /// vectors are exchanged here. False (and `c` zero) where ρ is 0 (cos θi = 0, or
+    /// ωi + ωo = 0).
+    #[inline]
+    pub(crate) fn coefficients(&self, wi: [f64; 3], wo: [f64; 3], c: &mut [f64]) -> bool {
+        let c = &mut c[..self.k];
+        c.fill(0.0);
+        // The tables' own direction (the viewer's) first, the light's second.
+        let (wi, wo, theta_i) = Self::frame(wo, wi);
+        if wo[2] <= 0.0 {
+            return false;
+        }
+        let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+        let len = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+        if !(len > 0.0) {
+            return false;
+        }
+        let m = [h[0] / len, h[1] / len, h[2] / len];
+        let theta_m = (m[0] * m[0] + m[1] * m[1]).sqrt().atan2(m[2]);
+        let phi_m = m[1].atan2(m[0]);
+        let ux = (theta_m / FRAC_PI_2).sqrt();
+        let mut uy = (phi_m + PI) / (2.0 * PI);
+        uy -= uy.floor();
+        let sl = self.slices(theta_i);
+        let (sx, sy) = self.invert(sl, ux, uy);
+        let xi = (theta_i.max(0.0) / FRAC_PI_2).sqrt();
+        let sigma = lerp_nodes(self.sigma.len(), xi, |j| self.sigma[j]);
+        let f = ndf_at(&self.ndf, ux) / (4.0 * sigma) / wo[2];
+        let rr = self.r * self.r;
+        for (k, ck) in c.iter_mut().enumerate() {
+            let ta = &self.tables[(sl.a * self.k + k) * rr..][..rr];
+            let tb = &self.tables[(sl.b * self.k + k) * rr..][..rr];
+            let va = bilerp(ta, self.r, sx, sy);
+            let vb = bilerp(tb, self.r, sx, sy);
+            *ck = (va + (vb - va) * sl.t) * f;
+        }
+        true
+    }
+
+    /// Draws ωo for unit `wi` (z ≥ 0) from `u` ∈ [0, 1)²: with probability [`COSINE_SHARE`] a
+    /// cosine-weighted direction, else the reflection of a half vector drawn from the blended
+    /// VNDF warp. `None` when the drawn direction is below the horizon.
+    pub(crate) fn sample(&self, wi: [f64; 3], u: [f64; 2]) -> Option<[f64; 3]> {
+        let (wi2, _, theta_i) = Self::frame(wi, [0.0, 0.0, 1.0]);
+        let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
+        let (c, s) = if r > 0.0 {
+            (wi[0] / r, wi[1] / r)
+        } else {
+            (1.0, 0.0)
+        };
+        let local = if u[0] < COSINE_SHARE {
+            let u0 = u[0] / COSINE_SHARE;
+            let rad = u0.sqrt();
+            let phi = 2.0 * PI * u[1];
+            [rad * phi.cos(), rad * phi.sin(), (1.0 - u0).max(0.0).sqrt()]
+        } else {
+            let u0 = ((u[0] - COSINE_SHARE) / (1.0 - COSINE_SHARE)).min(1.0);
+            let sl = self.slices(theta_i);
+            let (ux, uy) = self.warp(sl, u0, u[1]);
+            let (m, _) = half_vector(ux, uy);
+            let d = 2.0 * (wi2[0] * m[0] + wi2[2] * m[2]);
+            [d * m[0] - wi2[0], d * m[1], d * m[2] - wi2[2]]
+        };
+        if !(local[2] > 0.0) {
+            return None;
+        }
+        // Back to the query's frame: rotate by the incident azimuth.
+        Some([
+            c * local[0] - s * local[1],
+            s * local[0] + c * local[1],
+            local[2],
+        ])
+    }
+
+    /// The density (1/sr) with which [`WarpedEval::sample`] draws unit `wo` for unit `wi`.
+    pub(crate) fn pdf(&self, wi: [f64; 3], wo: [f64; 3]) -> f64 {
+        let (wi, wo, theta_i) = Self::frame(wi, wo);
+        if wo[2] <= 0.0 {
+            return 0.0;
+        }
+        let cosine = wo[2] / PI;
+        let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
+        let len = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
+        let mut vndf = 0.0;
+        if len > 0.0 {
+            let m = [h[0] / len, h[1] / len, h[2] / len];
+            let sin_m = (m[0] * m[0] + m[1] * m[1]).sqrt();
+            let theta_m = sin_m.atan2(m[2]);
+            let ux = (theta_m / FRAC_PI_2).sqrt();
+            let mut uy = (m[1].atan2(m[0]) + PI) / (2.0 * PI);
+            uy -= uy.floor();
+            let jac = jacobian(ux, sin_m);
+            let dot = wo[0] * m[0] + wo[1] * m[1] + wo[2] * m[2];
+            if jac > 0.0 && dot > 0.0 {
+                let sl = self.slices(theta_i);
+                vndf = self.density_u(sl, ux, uy) / jac / (4.0 * dot);
+            }
+        }
+        COSINE_SHARE * cosine + (1.0 - COSINE_SHARE) * vndf
+    }
+}
+
+#[inline]
+fn lerp(a: f64, b: f64, t: f64) -> f64 {
+    a + (b - a) * t
+}
+
+/// Bilinear interpolation of an n × n table (rows along y) at (x, y) ∈ [0, 1]².
+#[inline]
+fn bilerp(g: &[f64], n: usize, x: f64, y: f64) -> f64 {
+    let n1 = (n - 1) as f64;
+    let fx = x.clamp(0.0, 1.0) * n1;
+    let fy = y.clamp(0.0, 1.0) * n1;
+    let ix = (fx.floor() as usize).min(n - 2);
+    let iy = (fy.floor() as usize).min(n - 2);
+    let (tx, ty) = (fx - ix as f64, fy - iy as f64);
+    let v = |yy: usize, xx: usize| g[yy * n + xx];
+    lerp(
+        lerp(v(iy, ix), v(iy, ix + 1), tx),
+        lerp(v(iy + 1, ix), v(iy + 1, ix + 1), tx),
+        ty,
+    )
+}
+
+/// The first interval k ∈ [0, n−2] whose upper CDF value reaches s.
+#[inline]
+fn interval(n: usize, s: f64, cdf_at: impl Fn(usize) -> f64) -> usize {
+    let (mut lo, mut hi) = (0usize, n - 1);
+    while lo + 1 < hi {
+        let mid = (lo + hi) / 2;
+        if cdf_at(mid) < s {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    (hi - 1).min(n - 2)
+}
+
+/// τ ∈ [0, 1] with ∫₀^τ lerp(v0, v1, t) dt = a.
+#[inline]
+fn solve_segment(a: f64, v0: f64, v1: f64) -> f64 {
+    let a = a.max(0.0);
+    let disc = (v0 * v0 + 2.0 * a * (v1 - v0)).max(0.0);
+    let den = v0 + disc.sqrt();
+    if den > 0.0 {
+        (2.0 * a / den).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}

@@ -1,0 +1,538 @@
+//! The warped-table encoder (`spec/FORMAT.md` §3.10, `spec/EVALUATION.md`, "Warped tables"):
+//! a measurement given on its own VNDF-warped grid (RGL files) is kept there, spectra on a
+//! per-material principal basis, each term's table transform-coded with one quantisation step
+//! chosen so that the worst stored incidence stays within the error budget.
+//!
+//! Why: per-incidence SH backgrounds with analytic lobes, and the factor model, stop at 5–40% on
+//! dense measurements whose peaks are one sample wide on any regular angular grid; on the warped
+//! grid the same peaks span many nodes, the tables are smooth, and the error falls steadily as
+//! bytes grow, so any budget can be met (README, "Warped tables").
+//!
+//! The error is measured where the file stores the measurement: the relative L2 error of the
+//! spectra over an incidence's R × R nodes and every wavelength, in table units (the
+//! measurement's value before the NDF/(4σ cos θo) factor, which the warp makes roughly uniform
+//! in importance). The worst stored incidence is held to the budget.
+
+use crate::error::{Error, Result};
+use crate::model::material::{IncidentRecord, Material};
+use crate::model::spectral::{BasisTable, SpectralBasis, SpectralSpace};
+use crate::model::warped::{dct2, dct_basis, idct2, WarpedModel, MAX_LEVEL};
+use crate::model::Precision;
+use half::f16;
+use nalgebra::{DMatrix, SymmetricEigen};
+
+/// A measurement on its warped grid, as an input reader hands it over.
+#[derive(Debug, Clone)]
+pub struct WarpedInput {
+    /// Stored incidences θi in degrees, strictly increasing, within [0, 90].
+    pub thetas_deg: Vec<f32>,
+    /// Wavelengths of the spectra, nm, strictly increasing.
+    pub wavelengths: Vec<f32>,
+    /// Table side R.
+    pub grid: usize,
+    /// VNDF grid side G the warp is rebuilt on.
+    pub warp_grid: usize,
+    /// The NDF at M nodes x_j = j/(M−1) of u_x.
+    pub ndf: Vec<f32>,
+    /// The measurement's own σ at the same M nodes (to find the σ normalisation), if it has
+    /// one; else the normalisation is 1.
+    pub sigma: Option<Vec<f32>>,
+    /// Spectra at every node: incidence-major, then row (s_y), column (s_x), then wavelength.
+    pub spectra: Vec<f64>,
+    /// Where the spectra stand in for D < W numbers that are the measurement (an RGB file made
+    /// spectral), the linear map from a spectrum to them (D rows of W); errors are then
+    /// measured there, and exactly D terms are stored, solved so that the map of each
+    /// rebuilt spectrum is the measurement's (the quantised tables aside).
+    pub metric: Option<Metric>,
+}
+
+/// A linear map of spectra (W values) to D measured values, row-major.
+#[derive(Debug, Clone)]
+pub struct Metric {
+    pub rows: usize,
+    pub matrix: Vec<f64>,
+}
+
+impl Metric {
+    fn apply(&self, s: &[f64], out: &mut [f64]) {
+        let w = s.len();
+        for (d, o) in out.iter_mut().enumerate().take(self.rows) {
+            *o = (0..w).map(|l| self.matrix[d * w + l] * s[l]).sum();
+        }
+    }
+}
+
+/// What the warped encoder is asked for.
+#[derive(Debug, Clone)]
+pub struct WarpedOptions {
+    /// The budget: relative L2 error of the worst stored incidence (0.01 = 1%).
+    pub max_error: f64,
+    /// Spectral terms; `None`: the smallest count whose projection leaves ≤ ¼ of the budget.
+    pub terms: Option<usize>,
+}
+
+/// Default budget of the warped encoder.
+pub const DEFAULT_MAX_ERROR: f64 = 0.01;
+/// Most spectral terms chosen automatically.
+pub const MAX_AUTO_TERMS: usize = 12;
+
+/// The result: the material (records empty, `WARP` filled) and what was measured.
+#[derive(Debug, Clone)]
+pub struct WarpedEncoded {
+    pub material: Material,
+    /// Relative L2 error of each stored incidence (table units).
+    pub errors: Vec<f64>,
+    /// The error of the spectral projection alone, worst incidence.
+    pub projection_error: f64,
+    /// The quantisation step used (one for every table).
+    pub step: f64,
+    /// Whether the budget was met.
+    pub met: bool,
+}
+
+/// Encodes a warped measurement. Fails only on inputs that break the layout's rules; a budget
+/// that cannot be met is reported in `met` (the most accurate tables are then returned).
+pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<WarpedEncoded> {
+    let (n, r, w) = (input.thetas_deg.len(), input.grid, input.wavelengths.len());
+    let nodes = n * r * r;
+    if n == 0 || w == 0 || input.spectra.len() != nodes * w {
+        return Err(Error::Input(format!(
+            "warped tables: {} values for {n} incidences of {r}² nodes and {w} wavelengths",
+            input.spectra.len()
+        )));
+    }
+    if !(opts.max_error.is_finite() && opts.max_error > 0.0) {
+        return Err(Error::Parameter(format!(
+            "an error budget of {} (give a positive fraction)",
+            opts.max_error
+        )));
+    }
+    let x = &input.spectra;
+    // What errors are measured on: the spectra, or their map by the metric.
+    let (y, dy) = match &input.metric {
+        None => (x.clone(), w),
+        Some(m) => {
+            let mut y = vec![0.0; nodes * m.rows];
+            for (s, o) in x.chunks_exact(w).zip(y.chunks_exact_mut(m.rows)) {
+                m.apply(s, o);
+            }
+            (y, m.rows)
+        }
+    };
+    let target = Target {
+        y: &y,
+        d: dy,
+        metric: input.metric.as_ref(),
+        w,
+        r,
+    };
+    // Energy of each incidence, for relative errors.
+    let norms: Vec<f64> = (0..n)
+        .map(|i| {
+            y[i * r * r * dy..(i + 1) * r * r * dy]
+                .iter()
+                .map(|v| v * v)
+                .sum::<f64>()
+                .sqrt()
+                .max(f64::MIN_POSITIVE)
+        })
+        .collect();
+    let basis_all = principal_basis(x, w);
+    let max_k = w.min(opts.terms.unwrap_or(MAX_AUTO_TERMS)).max(1);
+    // With a metric of D rows, D terms solved in the metric: its values come back exactly.
+    let forced = input.metric.as_ref().map(|m| m.rows.min(w));
+    let mut k = forced.unwrap_or_else(|| opts.terms.map_or(1, |t| t.clamp(1, w)));
+    let (mut basis, mut coef, mut projection_error);
+    loop {
+        basis = basis_all[..k * w].to_vec();
+        coef = match &input.metric {
+            Some(m) if k == m.rows => {
+                basis = metric_orthonormal(&y, m, &basis, k, w)?;
+                project_in_metric(&y, m, &basis, k, w)?
+            }
+            _ => project(x, &basis, k, w),
+        };
+        let errs = target.errors(&coef, &basis, k, &norms);
+        projection_error = errs.iter().cloned().fold(0.0, f64::max);
+        if forced.is_some()
+            || opts.terms.is_some()
+            || projection_error <= 0.25 * opts.max_error
+            || k >= max_k
+        {
+            break;
+        }
+        k += 1;
+    }
+    // Tables (i, k): R² coefficient values each, then their DCT.
+    let rr = r * r;
+    let dct = dct_basis(r);
+    let mut freq = vec![0.0; n * k * rr];
+    let mut table = vec![0.0; rr];
+    for i in 0..n {
+        for t in 0..k {
+            for p in 0..rr {
+                table[p] = coef[(i * rr + p) * k + t];
+            }
+            dct2(
+                &dct,
+                r,
+                &table,
+                &mut freq[(i * k + t) * rr..(i * k + t + 1) * rr],
+            );
+        }
+    }
+    // Per stored incidence, the largest step (bisection in log q) whose error meets the
+    // budget: every incidence ends near the budget, none spends bytes below it.
+    let mut steps = vec![0f32; n * k];
+    let mut levels = vec![0i32; n * k * rr];
+    let mut errors = vec![0.0; n];
+    let mut met = true;
+    for i in 0..n {
+        let f = &freq[i * k * rr..(i + 1) * k * rr];
+        let largest = f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let q_min = (largest / (MAX_LEVEL as f64 - 1.0)).max(f64::MIN_POSITIVE);
+        let error_at = |q: f64| -> (Vec<i32>, f64) {
+            let lv = quantise(f, q);
+            let dec = dequantise_tables(&lv, q as f32, &dct, r, k);
+            let mut c = vec![0.0; rr * k];
+            for t in 0..k {
+                for p in 0..rr {
+                    c[p * k + t] = dec[t * rr + p];
+                }
+            }
+            (lv, target.error_of(i, &c, &basis, k, norms[i]))
+        };
+        let (mut lo, mut hi) = (q_min.ln(), (largest.max(1e-30) * 4.0).ln());
+        let (lv, e) = error_at(lo.exp());
+        let mut best = (lo.exp() as f32, lv, e);
+        if e <= opts.max_error {
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                let (lv, e) = error_at(mid.exp());
+                if e <= opts.max_error {
+                    lo = mid;
+                    best = (mid.exp() as f32, lv, e);
+                } else {
+                    hi = mid;
+                }
+                if hi - lo < 0.003 {
+                    break;
+                }
+            }
+        } else {
+            met = false;
+        }
+        steps[i * k..(i + 1) * k].fill(best.0);
+        levels[i * k * rr..(i + 1) * k * rr].copy_from_slice(&best.1);
+        errors[i] = best.2;
+    }
+    let step = steps.iter().cloned().fold(0f32, f32::max);
+    let table_values: Vec<f64> = basis.clone();
+    let wl: Vec<f64> = input.wavelengths.iter().map(|&v| v as f64).collect();
+    let spectral = SpectralSpace {
+        basis: SpectralBasis::Tabulated,
+        terms: k,
+        lambda_min: wl[0],
+        lambda_max: wl[w - 1],
+        table: Some(BasisTable {
+            nodes: wl,
+            values: table_values,
+            precision: Precision::F16,
+        }),
+    };
+    let sigma_scale = sigma_scale(input);
+    let (ndf_precision, ndf) = ndf_stored(&input.ndf);
+    let model = WarpedModel {
+        grid: r,
+        warp_grid: input.warp_grid,
+        sigma_scale,
+        ndf_precision,
+        ndf,
+        steps,
+        levels,
+    };
+    let material = Material {
+        version_minor: crate::format::VERSION_MINOR_WARP,
+        spectral,
+        sh_level: 0,
+        isotropic: true,
+        wavelengths: input.wavelengths.clone(),
+        records: input
+            .thetas_deg
+            .iter()
+            .map(|&t| IncidentRecord::empty(t, 0.0))
+            .collect(),
+        metadata: None,
+        sample_positions: None,
+        factor: None,
+        held_out: None,
+        warped: Some(model),
+    };
+    material
+        .validate()
+        .map_err(|e| Error::Input(format!("warped tables: {e}")))?;
+    Ok(WarpedEncoded {
+        material,
+        errors,
+        projection_error,
+        step: step as f64,
+        met,
+    })
+}
+
+/// Orthonormal principal directions of the node spectra (W values each), largest first, each
+/// rounded to `f16` (what `SBAS` stores: the basis is fitted as stored) with its largest component positive.
+fn principal_basis(x: &[f64], w: usize) -> Vec<f64> {
+    let mut cov = DMatrix::<f64>::zeros(w, w);
+    for s in x.chunks_exact(w) {
+        for a in 0..w {
+            for b in a..w {
+                cov[(a, b)] += s[a] * s[b];
+            }
+        }
+    }
+    for a in 0..w {
+        for b in 0..a {
+            cov[(a, b)] = cov[(b, a)];
+        }
+    }
+    let eig = SymmetricEigen::new(cov);
+    let mut order: Vec<usize> = (0..w).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    let mut out = Vec::with_capacity(w * w);
+    for &j in &order {
+        let col = eig.eigenvectors.column(j);
+        let big = col
+            .iter()
+            .cloned()
+            .fold(0.0f64, |m, v| if v.abs() > m.abs() { v } else { m });
+        let sign = if big < 0.0 { -1.0 } else { 1.0 };
+        out.extend(col.iter().map(|v| f16::from_f64(sign * v).to_f64()));
+    }
+    out
+}
+
+/// Least-squares coefficients (K per node, node-major) of every spectrum on the K basis rows.
+fn project(x: &[f64], basis: &[f64], k: usize, w: usize) -> Vec<f64> {
+    let b = DMatrix::from_row_slice(k, w, basis);
+    let gram = &b * b.transpose();
+    let inv = gram
+        .clone()
+        .try_inverse()
+        .unwrap_or_else(|| DMatrix::identity(k, k));
+    let mut out = Vec::with_capacity(x.len() / w * k);
+    for s in x.chunks_exact(w) {
+        let mut bx = vec![0.0; k];
+        for (t, v) in bx.iter_mut().enumerate() {
+            *v = (0..w).map(|l| basis[t * w + l] * s[l]).sum();
+        }
+        for t in 0..k {
+            out.push((0..k).map(|u| inv[(t, u)] * bx[u]).sum());
+        }
+    }
+    out
+}
+
+/// What rebuilt spectra are compared with: the measurement's values `y` (D per node: the
+/// spectra themselves, or their map by the metric).
+struct Target<'a> {
+    y: &'a [f64],
+    d: usize,
+    metric: Option<&'a Metric>,
+    w: usize,
+    r: usize,
+}
+
+impl Target<'_> {
+    /// Relative L2 error of incidence i from its nodes' coefficients `c` (K per node).
+    fn error_of(&self, i: usize, c: &[f64], basis: &[f64], k: usize, norm: f64) -> f64 {
+        let (w, d, per) = (self.w, self.d, self.r * self.r);
+        let mut s = vec![0.0; w];
+        let mut m = vec![0.0; d];
+        let mut e = 0.0;
+        for p in 0..per {
+            for (l, sv) in s.iter_mut().enumerate() {
+                *sv = (0..k).map(|t| c[p * k + t] * basis[t * w + l]).sum();
+            }
+            let rebuilt: &[f64] = match self.metric {
+                Some(mt) => {
+                    mt.apply(&s, &mut m);
+                    &m
+                }
+                None => &s,
+            };
+            let y = &self.y[(i * per + p) * d..(i * per + p + 1) * d];
+            for (a, b) in rebuilt.iter().zip(y) {
+                e += (a - b) * (a - b);
+            }
+        }
+        e.sqrt() / norm
+    }
+
+    /// Relative L2 error per incidence of the spectra rebuilt from coefficients `c` (K per
+    /// node) on `basis`, against `y`, normalised by `norms`.
+    fn errors(&self, c: &[f64], basis: &[f64], k: usize, norms: &[f64]) -> Vec<f64> {
+        let (w, d, per) = (self.w, self.d, self.r * self.r);
+        let mut s = vec![0.0; w];
+        let mut m = vec![0.0; d];
+        norms
+            .iter()
+            .enumerate()
+            .map(|(i, norm)| {
+                let mut e = 0.0;
+                for p in i * per..(i + 1) * per {
+                    for (l, sv) in s.iter_mut().enumerate() {
+                        *sv = (0..k).map(|t| c[p * k + t] * basis[t * w + l]).sum();
+                    }
+                    let rebuilt: &[f64] = match self.metric {
+                        Some(mt) => {
+                            mt.apply(&s, &mut m);
+                            &m
+                        }
+                        None => &s,
+                    };
+                    for (a, b) in rebuilt.iter().zip(&self.y[p * d..(p + 1) * d]) {
+                        e += (a - b) * (a - b);
+                    }
+                }
+                e.sqrt() / norm
+            })
+            .collect()
+    }
+}
+
+/// The span of `basis` (K = D rows) turned so that its coefficients are orthonormal
+/// coordinates of the metric's values, along their principal directions: one quantisation step
+/// then costs the same error in every term (an RGB file's colours decorrelated, as image codecs
+/// turn RGB into luma and chroma). Rows rounded to `f16`, as `SBAS` stores them.
+fn metric_orthonormal(
+    y: &[f64],
+    m: &Metric,
+    basis: &[f64],
+    k: usize,
+    w: usize,
+) -> Result<Vec<f64>> {
+    let d = m.rows;
+    let p = DMatrix::from_row_slice(d, w, &m.matrix);
+    let b = DMatrix::from_row_slice(k, w, basis);
+    let a = &p * b.transpose();
+    let a_inv = a.try_inverse().ok_or_else(|| {
+        Error::Input("warped tables: the spectral basis is degenerate under the metric".into())
+    })?;
+    let mut cov = DMatrix::<f64>::zeros(d, d);
+    for v in y.chunks_exact(d) {
+        for i in 0..d {
+            for j in 0..d {
+                cov[(i, j)] += v[i] * v[j];
+            }
+        }
+    }
+    let eig = SymmetricEigen::new(cov);
+    let mut order: Vec<usize> = (0..d).collect();
+    order.sort_by(|&i, &j| eig.eigenvalues[j].total_cmp(&eig.eigenvalues[i]));
+    let mut v = DMatrix::<f64>::zeros(d, d);
+    for (col, &j) in order.iter().enumerate() {
+        let e = eig.eigenvectors.column(j);
+        let big = e
+            .iter()
+            .cloned()
+            .fold(0.0f64, |m, x| if x.abs() > m.abs() { x } else { m });
+        let sign = if big < 0.0 { -1.0 } else { 1.0 };
+        for i in 0..d {
+            v[(i, col)] = sign * e[i];
+        }
+    }
+    // B' = Vᵀ·A⁻ᵀ·B: then P·B'ᵀ = P·Bᵀ·A⁻¹·V = V, orthogonal.
+    let turned = v.transpose() * a_inv.transpose() * b;
+    let mut out = Vec::with_capacity(k * w);
+    for t in 0..k {
+        for l in 0..w {
+            out.push(f16::from_f64(turned[(t, l)]).to_f64());
+        }
+    }
+    Ok(out)
+}
+
+/// Coefficients (K = D per node) whose rebuilt spectra map exactly onto `y` under the metric:
+/// c = (P·Bᵀ)⁻¹·y.
+fn project_in_metric(y: &[f64], m: &Metric, basis: &[f64], k: usize, w: usize) -> Result<Vec<f64>> {
+    let p = DMatrix::from_row_slice(m.rows, w, &m.matrix);
+    let b = DMatrix::from_row_slice(k, w, basis);
+    let pb = &p * b.transpose();
+    let inv = pb.try_inverse().ok_or_else(|| {
+        Error::Input("warped tables: the spectral basis is degenerate under the metric".into())
+    })?;
+    let mut out = Vec::with_capacity(y.len());
+    for v in y.chunks_exact(m.rows) {
+        for t in 0..k {
+            out.push((0..m.rows).map(|u| inv[(t, u)] * v[u]).sum());
+        }
+    }
+    Ok(out)
+}
+
+/// Rounds every coefficient to the nearest multiple of q.
+fn quantise(freq: &[f64], q: f64) -> Vec<i32> {
+    let lim = (MAX_LEVEL - 1) as f64;
+    freq.iter()
+        .map(|v| (v / q).round().clamp(-lim, lim) as i32)
+        .collect()
+}
+
+/// The tables a decoder rebuilds from `levels` at step q (as stored: `f32`).
+fn dequantise_tables(levels: &[i32], q: f32, dct: &[f64], r: usize, tables: usize) -> Vec<f64> {
+    let rr = r * r;
+    let mut out = vec![0.0; tables * rr];
+    let mut c = vec![0.0; rr];
+    for t in 0..tables {
+        for (cv, &z) in c.iter_mut().zip(&levels[t * rr..(t + 1) * rr]) {
+            *cv = q as f64 * z as f64;
+        }
+        idct2(dct, r, &c, &mut out[t * rr..(t + 1) * rr]);
+    }
+    out
+}
+
+/// The NDF as stored: `f16` when every value keeps its first three digits there (or is below a
+/// millionth of the largest, where it weighs nothing), else `f32` as given.
+fn ndf_stored(ndf: &[f32]) -> (Precision, Vec<f32>) {
+    let largest = ndf.iter().cloned().fold(0f32, f32::max);
+    let rounded: Vec<f32> = ndf.iter().map(|&v| f16::from_f32(v).to_f32()).collect();
+    let fits = ndf.iter().zip(&rounded).all(|(&v, &h)| {
+        h.is_finite() && ((h - v).abs() <= 1e-3 * v.abs() || v.abs() <= 1e-6 * largest)
+    });
+    if fits {
+        (Precision::F16, rounded)
+    } else {
+        (Precision::F32, ndf.to_vec())
+    }
+}
+
+/// The σ normalisation c: the median of σ(θ_j)/I(θ_j) over the measurement's own σ nodes, where
+/// I is the VNDF total the decoder computes (1 without a σ).
+fn sigma_scale(input: &WarpedInput) -> f32 {
+    let Some(sigma) = &input.sigma else {
+        return 1.0;
+    };
+    let m = sigma.len();
+    let thetas: Vec<f64> = (0..m)
+        .map(|j| {
+            let x = j as f64 / (m - 1).max(1) as f64;
+            x * x * std::f64::consts::FRAC_PI_2
+        })
+        .collect();
+    let totals = crate::decode::vndf_totals(&input.ndf, input.warp_grid, &thetas);
+    let mut ratios: Vec<f64> = sigma
+        .iter()
+        .zip(&totals)
+        .filter_map(|(&s, &total)| {
+            let s = s as f64;
+            (total > 0.0 && s > 0.0 && s.is_finite()).then(|| s / total)
+        })
+        .collect();
+    if ratios.is_empty() {
+        return 1.0;
+    }
+    ratios.sort_by(f64::total_cmp);
+    ratios[ratios.len() / 2] as f32
+}

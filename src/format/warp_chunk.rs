@@ -1,0 +1,229 @@
+//! The bytes of a `WARP` chunk (`spec/FORMAT.md` §3.10): read with every count checked before
+//! anything is allocated and the inflated payload bounded, and written.
+
+use super::read::Fields;
+use crate::error::Result;
+use crate::model::warped::{diagonal_order, WarpedModel, MAX_GRID, MAX_NDF, MAX_WARP_GRID};
+use crate::model::warped::{MAX_LEVEL, MAX_WARP_VALUES, MIN_WARP_GRID};
+use crate::model::Precision;
+use miniz_oxide::inflate::core::{decompress, inflate_flags, DecompressorOxide};
+use miniz_oxide::inflate::TINFLStatus;
+
+/// The only layout defined: isotropic tables.
+pub(crate) const LAYOUT_ISOTROPIC: u8 = 1;
+
+/// DEFLATE never expands more than 1032:1; with the zlib header and trailer a payload of P bytes
+/// cannot inflate past this, which bounds the output buffer by the bytes present.
+fn inflate_bound(p: usize) -> usize {
+    p.saturating_mul(1032).saturating_add(64)
+}
+
+/// Reads a `WARP` chunk for a file of `n` incidences and `k` terms.
+pub(super) fn read_warped(f: &mut Fields, n: usize, k: usize) -> Result<WarpedModel> {
+    let layout = f.u8("layout")?;
+    if layout != LAYOUT_ISOTROPIC {
+        return Err(f.unsupported(format!("unknown warped-table layout {layout}")));
+    }
+    let code = f.u8("ndf_precision")?;
+    let ndf_precision = Precision::from_code(code)
+        .ok_or_else(|| f.unsupported(format!("unknown NDF precision code {code}")))?;
+    let r = f.u16("grid")? as usize;
+    let g = f.u16("warp_grid")? as usize;
+    let m = f.u16("ndf_count")? as usize;
+    if !(2..=MAX_GRID).contains(&r)
+        || !(MIN_WARP_GRID..=MAX_WARP_GRID).contains(&g)
+        || !(2..=MAX_NDF).contains(&m)
+    {
+        return Err(f.malformed(format!(
+            "warped tables of side {r}, VNDF grid {g}, {m} NDF nodes (2 to {MAX_GRID}, \
+             {MIN_WARP_GRID} to {MAX_WARP_GRID}, 2 to {MAX_NDF})"
+        )));
+    }
+    let values = (n as u64) * (k as u64) * (r * r) as u64;
+    if values > MAX_WARP_VALUES || (n as u64) * (g * g) as u64 > MAX_WARP_VALUES {
+        return Err(f.malformed(format!(
+            "{n} incidences × {k} terms of {r}² values, or × {g}² VNDF nodes, exceed \
+             {MAX_WARP_VALUES}"
+        )));
+    }
+    let sigma_scale = f.f32("sigma_scale")?;
+    let need = ndf_precision.bytes() * m + 4 * n * k + 4;
+    if f.remaining() < need {
+        return Err(f.malformed(format!(
+            "the NDF, steps and payload length need {need} bytes, the chunk has {} left",
+            f.remaining()
+        )));
+    }
+    let ndf = (0..m)
+        .map(|_| f.stored(ndf_precision, 1.0, "ndf"))
+        .collect::<Result<Vec<_>>>()?;
+    let steps = (0..n * k)
+        .map(|_| f.f32("step"))
+        .collect::<Result<Vec<_>>>()?;
+    let p = f.u32("payload_length")? as usize;
+    if p == 0 || p != f.remaining() {
+        return Err(f.malformed(format!(
+            "payload_length {p}, but {} bytes follow it in the chunk",
+            f.remaining()
+        )));
+    }
+    let at = f.at();
+    let payload = f.take(p, "payload")?;
+    let bound = (5 * values as usize).min(inflate_bound(p));
+    let bytes = inflate(payload, bound).map_err(|message| crate::error::Error::Format {
+        at: at.clone(),
+        message,
+    })?;
+    let levels =
+        varints(&bytes, values as usize, r).map_err(|message| crate::error::Error::Format {
+            at: at.clone(),
+            message,
+        })?;
+    f.finish()?;
+    Ok(WarpedModel {
+        grid: r,
+        warp_grid: g,
+        sigma_scale,
+        ndf_precision,
+        ndf,
+        steps,
+        levels,
+    })
+}
+
+/// Inflates a zlib stream into at most `bound` bytes; the stream must end exactly at the end of
+/// `payload`, its Adler-32 checked.
+fn inflate(payload: &[u8], bound: usize) -> std::result::Result<Vec<u8>, String> {
+    // One byte more than allowed tells "too long" from "exactly at the bound".
+    let mut out = vec![0u8; bound + 1];
+    let mut state = DecompressorOxide::new();
+    let flags = inflate_flags::TINFL_FLAG_PARSE_ZLIB_HEADER
+        | inflate_flags::TINFL_FLAG_USING_NON_WRAPPING_OUTPUT_BUF
+        | inflate_flags::TINFL_FLAG_COMPUTE_ADLER32;
+    let (status, consumed, written) = decompress(&mut state, payload, &mut out, 0, flags);
+    match status {
+        TINFLStatus::Done => {}
+        TINFLStatus::HasMoreOutput => {
+            return Err(format!(
+                "the payload inflates to more than the {bound} bytes its tables can need"
+            ))
+        }
+        TINFLStatus::NeedsMoreInput | TINFLStatus::FailedCannotMakeProgress => {
+            return Err("the payload's zlib stream ends early (truncated?)".into())
+        }
+        TINFLStatus::Adler32Mismatch => {
+            return Err("the payload's zlib stream fails its Adler-32 check".into())
+        }
+        other => {
+            return Err(format!(
+                "the payload is not a valid zlib stream ({other:?})"
+            ))
+        }
+    }
+    if consumed != payload.len() {
+        return Err(format!(
+            "{} bytes after the payload's zlib stream",
+            payload.len() - consumed
+        ));
+    }
+    if written > bound {
+        return Err(format!(
+            "the payload inflates to more than the {bound} bytes its tables can need"
+        ));
+    }
+    out.truncate(written);
+    Ok(out)
+}
+
+/// Exactly `count` zigzag LEB128 integers, tables of `r`² in diagonal order, returned in
+/// row-major frequency order.
+fn varints(bytes: &[u8], count: usize, r: usize) -> std::result::Result<Vec<i32>, String> {
+    let order = diagonal_order(r);
+    let rr = r * r;
+    let mut out = vec![0i32; count];
+    let mut pos = 0usize;
+    for i in 0..count {
+        let mut u: u64 = 0;
+        let mut shift = 0;
+        loop {
+            let Some(&b) = bytes.get(pos) else {
+                return Err(format!(
+                    "the payload inflates to {} integers, the tables need {count}",
+                    i
+                ));
+            };
+            pos += 1;
+            if shift == 35 {
+                return Err(format!("a varint longer than 5 bytes (integer {i})"));
+            }
+            u |= ((b & 0x7F) as u64) << shift;
+            shift += 7;
+            if b & 0x80 == 0 {
+                break;
+            }
+        }
+        let z = if u & 1 == 0 {
+            (u >> 1) as i64
+        } else {
+            -((u >> 1) as i64) - 1
+        };
+        if !(-MAX_LEVEL..MAX_LEVEL).contains(&z) {
+            return Err(format!("integer {i} is {z}, outside [−2³⁰, 2³⁰ − 1]"));
+        }
+        out[(i / rr) * rr + order[i % rr]] = z as i32;
+    }
+    if pos != bytes.len() {
+        return Err(format!(
+            "{} bytes left in the inflated payload after its {count} integers",
+            bytes.len() - pos
+        ));
+    }
+    Ok(out)
+}
+
+/// The data of a `WARP` chunk.
+pub(super) fn warp_chunk(w: &WarpedModel) -> Vec<u8> {
+    let mut d = Vec::new();
+    d.push(LAYOUT_ISOTROPIC);
+    d.push(w.ndf_precision.code());
+    d.extend_from_slice(&(w.grid as u16).to_le_bytes());
+    d.extend_from_slice(&(w.warp_grid as u16).to_le_bytes());
+    d.extend_from_slice(&(w.ndf.len() as u16).to_le_bytes());
+    d.extend_from_slice(&w.sigma_scale.to_le_bytes());
+    for v in &w.ndf {
+        match w.ndf_precision {
+            Precision::F32 => d.extend_from_slice(&v.to_le_bytes()),
+            Precision::F16 => d.extend_from_slice(&half::f16::from_f32(*v).to_le_bytes()),
+        }
+    }
+    for v in &w.steps {
+        d.extend_from_slice(&v.to_le_bytes());
+    }
+    let payload = miniz_oxide::deflate::compress_to_vec_zlib(&payload_bytes(w), 10);
+    d.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    d.extend_from_slice(&payload);
+    d
+}
+
+/// The inflated payload: every table's integers in diagonal order, zigzag LEB128.
+pub(crate) fn payload_bytes(w: &WarpedModel) -> Vec<u8> {
+    let rr = w.grid * w.grid;
+    let order = diagonal_order(w.grid);
+    let mut out = Vec::with_capacity(w.levels.len() * 2);
+    for t in 0..w.tables() {
+        for &o in &order {
+            let z = w.levels[t * rr + o] as i64;
+            let mut u = if z >= 0 {
+                (z as u64) << 1
+            } else {
+                ((-z - 1) as u64) << 1 | 1
+            };
+            while u >= 0x80 {
+                out.push((u as u8 & 0x7F) | 0x80);
+                u >>= 7;
+            }
+            out.push(u as u8);
+        }
+    }
+    out
+}

@@ -1,0 +1,272 @@
+//! Warped tables (`WARP`, format 1.4): a measurement kept on the parameterisation it was
+//! acquired in (Dupuy & Jakob 2018, the RGL material database), transform-coded.
+//!
+//! What is stored, exactly as the file stores it (`spec/FORMAT.md` §3.10): the NDF at M nodes,
+//! the σ normalisation, and per stored incidence i and spectral term k an R × R table given by
+//! its quantised 2-D DCT-II coefficients (integers, one step per table). What the numbers mean
+//! (the VNDF warp rebuilt from the NDF, the value of a query): `spec/EVALUATION.md`, "Warped
+//! tables". This module holds the data, its invariants and the transform both sides share; the
+//! decoder's resident form is `decode::warped`, the fitting `encode::warped`.
+
+use crate::model::Precision;
+use std::f64::consts::PI;
+
+/// Largest table side R.
+pub const MAX_GRID: usize = 64;
+/// Smallest VNDF grid side G (with 2 the only rows are φm = ±π).
+pub const MIN_WARP_GRID: usize = 3;
+/// Largest VNDF grid side G.
+pub const MAX_WARP_GRID: usize = 256;
+/// Most NDF nodes M.
+pub const MAX_NDF: usize = 4096;
+/// Most table values N·K·R² and most warp nodes N·G² in one file.
+pub const MAX_WARP_VALUES: u64 = 1 << 24;
+/// Largest magnitude of a stored integer: z ∈ [−2³⁰, 2³⁰ − 1].
+pub const MAX_LEVEL: i64 = 1 << 30;
+
+/// The model of a `WARP` chunk: isotropic tables over HEAD's N incidences and K terms.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WarpedModel {
+    /// Table side R (2..=64).
+    pub grid: usize,
+    /// VNDF grid side G (3..=256).
+    pub warp_grid: usize,
+    /// σ normalisation c (finite, > 0).
+    pub sigma_scale: f32,
+    /// How the NDF values are stored (each exactly representable in it).
+    pub ndf_precision: Precision,
+    /// The NDF at M nodes x_j = j/(M−1) of u_x (1/sr).
+    pub ndf: Vec<f32>,
+    /// q(i, k) at i·K + k.
+    pub steps: Vec<f32>,
+    /// n(i, k, a, b): table (i, k) at (i·K + k)·R², its R² integers in row-major frequency order
+    /// (a·R + b), *not* the file's diagonal order (the format module reorders).
+    pub levels: Vec<i32>,
+}
+
+impl WarpedModel {
+    /// Checks the invariants of §3.10 that do not depend on byte layout, for `n` incidences and
+    /// `k` terms.
+    pub fn validate(&self, n: usize, k: usize) -> Result<(), String> {
+        let (r, g, m) = (self.grid, self.warp_grid, self.ndf.len());
+        if !(2..=MAX_GRID).contains(&r) {
+            return Err(format!("warped tables of side {r} (2 to {MAX_GRID})"));
+        }
+        if !(MIN_WARP_GRID..=MAX_WARP_GRID).contains(&g) {
+            return Err(format!(
+                "a VNDF grid of side {g} ({MIN_WARP_GRID} to {MAX_WARP_GRID})"
+            ));
+        }
+        if !(2..=MAX_NDF).contains(&m) {
+            return Err(format!("{m} NDF nodes (2 to {MAX_NDF})"));
+        }
+        if (n as u64) * (k as u64) * (r * r) as u64 > MAX_WARP_VALUES {
+            return Err(format!(
+                "{n} incidences × {k} terms × {r}² table values exceed {MAX_WARP_VALUES}"
+            ));
+        }
+        if (n as u64) * (g * g) as u64 > MAX_WARP_VALUES {
+            return Err(format!(
+                "{n} incidences × {g}² VNDF nodes exceed {MAX_WARP_VALUES}"
+            ));
+        }
+        if !(self.sigma_scale.is_finite() && self.sigma_scale > 0.0) {
+            return Err(format!("sigma_scale {} is not > 0", self.sigma_scale));
+        }
+        if let Some((j, v)) = self
+            .ndf
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+        {
+            return Err(format!("NDF node {j} is {v}, not a finite value ≥ 0"));
+        }
+        if self.ndf_precision == Precision::F16
+            && self
+                .ndf
+                .iter()
+                .any(|&v| half::f16::from_f32(v).to_f32().to_bits() != v.to_bits())
+        {
+            return Err("an NDF value not representable in its f16 precision".into());
+        }
+        if !self.ndf.iter().any(|&v| v > 0.0) {
+            return Err("the NDF is zero everywhere".into());
+        }
+        if self.steps.len() != n * k {
+            return Err(format!(
+                "{} quantisation steps for {n} incidences × {k} terms",
+                self.steps.len()
+            ));
+        }
+        if let Some((j, q)) = self
+            .steps
+            .iter()
+            .enumerate()
+            .find(|(_, q)| !(q.is_finite() && **q >= 0.0))
+        {
+            return Err(format!(
+                "quantisation step {j} is {q}, not a finite value ≥ 0"
+            ));
+        }
+        if self.levels.len() != n * k * r * r {
+            return Err(format!(
+                "{} table coefficients for {n} × {k} tables of {r}²",
+                self.levels.len()
+            ));
+        }
+        if let Some(z) = self
+            .levels
+            .iter()
+            .find(|&&z| !(-MAX_LEVEL..MAX_LEVEL).contains(&(z as i64)))
+        {
+            return Err(format!("a table coefficient {z} outside ±2³⁰"));
+        }
+        Ok(())
+    }
+
+    /// Number of tables N·K.
+    pub fn tables(&self) -> usize {
+        self.steps.len()
+    }
+
+    /// The decoded tables, N·K of R² values each (row-major, rows along s_y), in binary64.
+    pub fn decode_tables(&self) -> Vec<f64> {
+        let r = self.grid;
+        let basis = dct_basis(r);
+        let mut out = vec![0.0; self.levels.len()];
+        let mut coef = vec![0.0; r * r];
+        for (t, q) in self.steps.iter().enumerate() {
+            let lv = &self.levels[t * r * r..(t + 1) * r * r];
+            for (c, &z) in coef.iter_mut().zip(lv) {
+                *c = *q as f64 * z as f64;
+            }
+            idct2(&basis, r, &coef, &mut out[t * r * r..(t + 1) * r * r]);
+        }
+        out
+    }
+}
+
+/// The orthonormal DCT-II matrix of side n: `basis[a·n + x] = α(a)·cos(π(2x + 1)a / 2n)`.
+pub fn dct_basis(n: usize) -> Vec<f64> {
+    let mut b = vec![0.0; n * n];
+    for a in 0..n {
+        let alpha = if a == 0 {
+            (1.0 / n as f64).sqrt()
+        } else {
+            (2.0 / n as f64).sqrt()
+        };
+        for x in 0..n {
+            b[a * n + x] = alpha * (PI * (2 * x + 1) as f64 * a as f64 / (2 * n) as f64).cos();
+        }
+    }
+    b
+}
+
+/// Forward 2-D DCT-II of `x` (n × n, row-major) into `c[a·n + b]` (a: row frequency).
+pub fn dct2(basis: &[f64], n: usize, x: &[f64], c: &mut [f64]) {
+    // Rows first (t[r][b] = Σ_x basis[b][x]·x[r][x]), then columns.
+    let mut t = vec![0.0; n * n];
+    for r in 0..n {
+        for b in 0..n {
+            t[r * n + b] = (0..n).map(|k| basis[b * n + k] * x[r * n + k]).sum();
+        }
+    }
+    for a in 0..n {
+        for b in 0..n {
+            c[a * n + b] = (0..n).map(|r| basis[a * n + r] * t[r * n + b]).sum();
+        }
+    }
+}
+
+/// Inverse of [`dct2`] (the orthonormal DCT-III), in the order of the spec's formula: for each
+/// row r, Σ_a α(a)cos(…r…)·Σ_b α(b)cos(…c…)·C(a, b).
+pub fn idct2(basis: &[f64], n: usize, c: &[f64], x: &mut [f64]) {
+    // t[a][col] = Σ_b basis[b][col]·C[a][b]
+    let mut t = vec![0.0; n * n];
+    for a in 0..n {
+        for col in 0..n {
+            t[a * n + col] = (0..n).map(|b| basis[b * n + col] * c[a * n + b]).sum();
+        }
+    }
+    for r in 0..n {
+        for col in 0..n {
+            x[r * n + col] = (0..n).map(|a| basis[a * n + r] * t[a * n + col]).sum();
+        }
+    }
+}
+
+/// The file's diagonal order of an R × R table's frequencies: position p of the stream holds
+/// row-major index `order[p]` = a·R + b, sorted by a + b, then by a.
+pub fn diagonal_order(r: usize) -> Vec<usize> {
+    let mut idx: Vec<(usize, usize)> = (0..r).flat_map(|a| (0..r).map(move |b| (a, b))).collect();
+    idx.sort_by_key(|&(a, b)| (a + b, a));
+    idx.into_iter().map(|(a, b)| a * r + b).collect()
+}
+
+/// Half vector parameter → unit half vector: θm = u_x²·π/2, φm = 2π·u_y − π.
+#[inline]
+pub fn half_vector(ux: f64, uy: f64) -> ([f64; 3], f64) {
+    let theta = ux * ux * std::f64::consts::FRAC_PI_2;
+    let phi = 2.0 * PI * uy - PI;
+    let (st, ct) = theta.sin_cos();
+    let (sp, cp) = phi.sin_cos();
+    ([st * cp, st * sp, ct], st)
+}
+
+/// The Jacobian of u ↦ m: sin θm · π u_x · 2π.
+#[inline]
+pub fn jacobian(ux: f64, sin_theta: f64) -> f64 {
+    sin_theta * PI * ux * 2.0 * PI
+}
+
+/// D(x): the NDF nodes linearly interpolated at x ∈ [0, 1] (clamped).
+#[inline]
+pub fn ndf_at(ndf: &[f32], x: f64) -> f64 {
+    lerp_nodes(ndf.len(), x, |i| ndf[i] as f64)
+}
+
+/// Linear interpolation of `len` nodes at j/(len−1), x clamped to [0, 1].
+#[inline]
+pub fn lerp_nodes(len: usize, x: f64, at: impl Fn(usize) -> f64) -> f64 {
+    let f = x.clamp(0.0, 1.0) * (len - 1) as f64;
+    let i = (f.floor() as usize).min(len - 2);
+    let t = f - i as f64;
+    at(i) + (at(i + 1) - at(i)) * t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dct_round_trip_and_orthonormality() {
+        let n = 7;
+        let b = dct_basis(n);
+        let x: Vec<f64> = (0..n * n).map(|i| ((i * 37) % 11) as f64 - 3.5).collect();
+        let mut c = vec![0.0; n * n];
+        let mut y = vec![0.0; n * n];
+        dct2(&b, n, &x, &mut c);
+        idct2(&b, n, &c, &mut y);
+        for (a, b) in x.iter().zip(&y) {
+            assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+        }
+        // Parseval: the transform keeps the sum of squares.
+        let ex: f64 = x.iter().map(|v| v * v).sum();
+        let ec: f64 = c.iter().map(|v| v * v).sum();
+        assert!((ex - ec).abs() < 1e-9 * ex);
+        // Only the DC coefficient: a constant table C/R.
+        let mut c = vec![0.0; n * n];
+        c[0] = 14.0;
+        idct2(&b, n, &c, &mut y);
+        assert!(y.iter().all(|v| (v - 2.0).abs() < 1e-12));
+    }
+
+    #[test]
+    fn diagonal_order_is_a_permutation_by_frequency() {
+        let o = diagonal_order(4);
+        assert_eq!(&o[..6], &[0, 1, 4, 2, 5, 8]);
+        let mut s = o.clone();
+        s.sort();
+        assert_eq!(s, (0..16).collect::<Vec<_>>());
+    }
+}
