@@ -389,8 +389,9 @@ fn encode_refuses_rgb_and_names_the_spectral_file() {
 
 #[test]
 fn encode_rgb_file_end_to_end() {
-    // A real RGL measurement through the program: read, made spectral, fitted, written; the
-    // file's colour is checked against the reader's at its own sample directions.
+    // A real RGL measurement through the program: read, made spectral, kept on its own warped
+    // grid (the default for one isotropic RGL file), written; the file's colour is checked
+    // against the reader's at the measurement's own nodes.
     let dir = tempfile::tempdir().unwrap();
     let input = data("satin_rosaline_rgb.bsdf");
     let o = sbrdf(
@@ -406,10 +407,7 @@ fn encode_rgb_file_end_to_end() {
     );
     let e = stderr(&o);
     assert!(o.status.success(), "{e}");
-    assert!(
-        e.contains("7 of 8 stored incidences") && e.contains("θi = 89.99999"),
-        "{e}"
-    );
+    assert!(e.contains("warped tables, 8 incidences"), "{e}");
     let info = sbrdf(&["info", "satin.sbrdf", "--json"], dir.path());
     let info = String::from_utf8_lossy(&info.stdout);
     for needle in [
@@ -420,15 +418,17 @@ fn encode_rgb_file_end_to_end() {
     ] {
         assert!(info.contains(needle), "{needle} not in {info}");
     }
-    // Colour at the reader's directions: the decoder's linear sRGB against the stored RGB.
+    // Colour at the reader's nodes: the decoder's linear sRGB against the stored RGB. The
+    // tables follow the viewing direction, as Mitsuba's measured plugin reads the file's θi
+    // (`spec/EVALUATION.md`, "Warped tables"): the file's incidence is the decoder's ωo.
     let dec = Decoder::open(dir.path().join("satin.sbrdf")).unwrap();
-    assert_eq!(dec.material().records.len(), 7);
+    assert_eq!(dec.material().records.len(), 8);
     let b = RglBsdf::from_bytes(&read("satin_rosaline")).unwrap();
     let (mut num, mut den) = (0.0, 0.0);
-    for s in b.samples(MAX_THETA_I, 90.0).unwrap() {
-        let wi = unit(s.theta_i, s.phi_i);
+    for s in b.samples(MAX_THETA_I, 89.0).unwrap() {
+        let viewer = unit(s.theta_i, s.phi_i);
         for (k, d) in s.directions.iter().enumerate() {
-            let rgb = dec.eval_linear_srgb(wi, unit(d[0], d[1]), Default::default());
+            let rgb = dec.eval_linear_srgb(unit(d[0], d[1]), viewer, Default::default());
             for (got, want) in rgb.iter().zip(&s.values[3 * k..3 * k + 3]) {
                 let want = want.max(0.0);
                 num += (got - want) * (got - want);
@@ -438,10 +438,10 @@ fn encode_rgb_file_end_to_end() {
     }
     let err = (num / den).sqrt();
     eprintln!("satin_rosaline_rgb.bsdf encoded: colour rel L2 {err:.4} over the reader's samples");
-    // 10.1%: the defaults keep the factor model shared by every incidence here, which predicts
-    // held-out samples far better than per-incidence records (2-fold rel 0.18 against 0.48) at
-    // a higher error at the samples (the records: 6.8%). See README, "Input RGL".
-    assert!(err < 0.13, "colour error {err}");
+    // The default budget is 1% of each stored incidence's colours in table units (before the
+    // NDF/(4σ cos) factor); in BRDF units near the horizon the factor weighs nodes unevenly,
+    // hence the margin. Negative colours (noise) come back as 0.
+    assert!(err < 0.02, "colour error {err}");
 }
 
 fn unit(theta_deg: f64, phi_deg: f64) -> [f32; 3] {

@@ -83,7 +83,10 @@ pub fn try_encode(a: &EncodeArgs, settings: &EncodeSettings) -> Result<bool> {
             format!("sbrdf {} (warped tables)", env!("CARGO_PKG_VERSION")).into(),
         );
         put("input", name.clone().into());
-        put("description", read.description.clone().into());
+        let base = a.inputs[0]
+            .file_name()
+            .map_or_else(|| name.clone(), |f| f.to_string_lossy().into_owned());
+        put(&format!("rgl:{base}"), read.description.clone().into());
         put(
             "source",
             "RGL material database (Dupuy & Jakob 2018): the measurement on its own warped grid"

@@ -319,4 +319,5 @@ fn material_heap_bytes(m: &Material) -> usize {
         + records
         + m.metadata.as_ref().map_or(0, |s| s.capacity())
         + samp
+        + m.warped.as_ref().map_or(0, |w| w.boxed_heap_bytes())
 }

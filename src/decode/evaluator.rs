@@ -48,7 +48,8 @@ pub(crate) struct Evaluator {
     /// The one-wavelength kernel of a file on the line path (`super::kernel`).
     pub(crate) kernel: Option<Kernel>,
     /// Warped tables (`WARP`): when present they answer every query (the records are empty).
-    pub(crate) warped: Option<WarpedEval>,
+    /// Boxed: a file without them pays one pointer.
+    pub(crate) warped: Option<Box<WarpedEval>>,
 }
 
 /// T*, the highest SH level and the most lobes among the records a query blends, and bit li
@@ -160,7 +161,7 @@ impl Evaluator {
             kernel: None,
             warped: material.warped.as_ref().and_then(|w| {
                 let thetas: Vec<f32> = material.records.iter().map(|r| r.theta_i).collect();
-                WarpedEval::new(w, &thetas, material.spectral.terms)
+                WarpedEval::new(w, &thetas, material.spectral.terms).map(Box::new)
             }),
             lattice,
             small,
@@ -180,29 +181,6 @@ impl Evaluator {
     /// model or warped tables: nothing depends on the incident direction alone).
     pub(crate) fn per_pair(&self) -> bool {
         self.res.factor.is_some() || self.warped.is_some()
-    }
-
-    /// ρ of warped tables at unit vectors (z ≥ 0), each wavelength into `out` through `put`
-    /// (the value before the clamp; 0 where ρ is 0).
-    #[inline]
-    fn warped_values(
-        &self,
-        w: &WarpedEval,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        mut put: impl FnMut(&[f64]),
-    ) {
-        let k = self.res.spectrum.terms();
-        let mut small = [0.0f64; SMALL_TERMS];
-        let mut large;
-        let c: &mut [f64] = if k <= SMALL_TERMS {
-            &mut small[..k]
-        } else {
-            large = [0.0f64; MAX_TERMS];
-            &mut large[..k]
-        };
-        w.coefficients(wi, wo, c);
-        put(c);
     }
 
     /// The factor model's angular terms at unit vectors `wi`, `wo` (any common frame: its
@@ -241,7 +219,10 @@ impl Evaluator {
         let info =
             std::mem::size_of::<BlendInfo>() * (self.alone.capacity() + self.pairs.capacity());
         let kernel = self.kernel.as_ref().map_or(0, Kernel::heap_bytes);
-        let warped = self.warped.as_ref().map_or(0, WarpedEval::heap_bytes);
+        let warped = self
+            .warped
+            .as_ref()
+            .map_or(0, |w| std::mem::size_of::<WarpedEval>() + w.heap_bytes());
         self.res.heap_bytes() + self.lattice.heap_bytes() + nodes + info + kernel + warped
     }
 
@@ -257,7 +238,7 @@ impl Evaluator {
             return;
         };
         if let Some(w) = &self.warped {
-            self.warped_values(w, wi, wo, |c| {
+            w.with_coefficients(wi, wo, |c| {
                 self.res.spectrum.eval_clamped(c, wavelengths, out)
             });
             return;
@@ -374,14 +355,12 @@ impl Evaluator {
             (incident.1, dir_from_deg(outgoing.0, outgoing.1))
         };
         if let Some(w) = &self.warped {
-            // The vectors as given: warped tables turn the query by the viewing direction's
-            // azimuth, not the light's ("Warped tables"), and at a viewing direction on the
-            // pole by none.
+            // The vectors as given: the tables turn by the viewing azimuth ("Warped tables").
             let (wi, wo) = (
                 dir_from_deg(incident.0, incident.1),
                 dir_from_deg(outgoing.0, outgoing.1),
             );
-            self.warped_values(w, wi, wo, |c| {
+            w.with_coefficients(wi, wo, |c| {
                 for (o, &l) in out.iter_mut().zip(wavelengths) {
                     let v = if l.is_finite() {
                         self.res.spectrum.dot(c, l)

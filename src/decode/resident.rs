@@ -75,7 +75,7 @@ pub(crate) struct Resident {
     pub factor: Option<FactorModel>,
     pub held_out: Option<HeldOutErrors>,
     /// Warped tables (`WARP`) as read (their decoded form lives in the evaluator).
-    pub warped: Option<WarpedModel>,
+    pub warped: Option<Box<WarpedModel>>,
 }
 
 impl Resident {
@@ -262,9 +262,7 @@ impl Resident {
                 .held_out
                 .as_ref()
                 .map_or(0, |h| 4 * (h.rel.capacity() + h.log.capacity()))
-            + self.warped.as_ref().map_or(0, |w| {
-                4 * (w.ndf.capacity() + w.steps.capacity() + w.levels.capacity())
-            })
+            + self.warped.as_ref().map_or(0, |w| w.boxed_heap_bytes())
     }
 }
 

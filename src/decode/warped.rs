@@ -308,7 +308,7 @@ impl WarpedEval {
         }
         let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
         let len = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
-        if !(len > 0.0) {
+        if len.is_nan() || len <= 0.0 {
             return false;
         }
         let m = [h[0] / len, h[1] / len, h[2] / len];
@@ -331,6 +331,21 @@ impl WarpedEval {
             *ck = (va + (vb - va) * sl.t) * f;
         }
         true
+    }
+
+    /// [`WarpedEval::coefficients`] in a stack buffer handed to `put` (all zero where ρ is 0).
+    #[inline]
+    pub(crate) fn with_coefficients(&self, wi: [f64; 3], wo: [f64; 3], put: impl FnOnce(&[f64])) {
+        const SMALL: usize = 16;
+        if self.k <= SMALL {
+            let mut c = [0.0f64; SMALL];
+            self.coefficients(wi, wo, &mut c);
+            put(&c[..self.k]);
+        } else {
+            let mut c = [0.0f64; crate::model::material::MAX_TERMS];
+            self.coefficients(wi, wo, &mut c);
+            put(&c[..self.k]);
+        }
     }
 
     /// Draws ωo for unit `wi` (z ≥ 0) from `u` ∈ [0, 1)²: with probability [`COSINE_SHARE`] a
@@ -357,7 +372,7 @@ impl WarpedEval {
             let d = 2.0 * (wi2[0] * m[0] + wi2[2] * m[2]);
             [d * m[0] - wi2[0], d * m[1], d * m[2] - wi2[2]]
         };
-        if !(local[2] > 0.0) {
+        if local[2].is_nan() || local[2] <= 0.0 {
             return None;
         }
         // Back to the query's frame: rotate by the incident azimuth.

@@ -266,7 +266,7 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         sample_positions: None,
         factor: None,
         held_out: None,
-        warped: Some(model),
+        warped: Some(Box::new(model)),
     };
     material
         .validate()

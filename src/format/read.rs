@@ -546,11 +546,11 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                         "WARP must appear once, after SBAS and before the records".into(),
                     ));
                 }
-                warped = Some(super::warp_chunk::read_warped(
+                warped = Some(Box::new(super::warp_chunk::read_warped(
                     &mut f,
                     h.incidences.len(),
                     h.spectral.terms,
-                )?);
+                )?));
             }
             (&CHUNK_XVAL, Some(h)) => {
                 if seen_xval {

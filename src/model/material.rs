@@ -301,7 +301,7 @@ pub struct Material {
     pub held_out: Option<HeldOutErrors>,
     /// Warped tables (`WARP`, format 1.4): the measurement on its own parameterisation; the
     /// records of such a file are empty.
-    pub warped: Option<WarpedModel>,
+    pub warped: Option<Box<WarpedModel>>,
 }
 
 /// How a record's held-out error was measured (`FORMAT.md`, `xval`).

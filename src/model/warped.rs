@@ -124,6 +124,12 @@ impl WarpedModel {
         Ok(())
     }
 
+    /// Bytes held on the heap by a boxed model: the box and its vectors (capacities).
+    pub fn boxed_heap_bytes(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + 4 * (self.ndf.capacity() + self.steps.capacity() + self.levels.capacity())
+    }
+
     /// Number of tables N·K.
     pub fn tables(&self) -> usize {
         self.steps.len()
