@@ -291,7 +291,15 @@ fn evals_shortcuts_give_the_general_paths_values() {
             );
             checked += 1;
         };
+        let warped = dec.material().warped.is_some();
         for &(a, b, ia, oa) in &good {
+            // Warped tables grow as 1/cos θ toward the horizon (the measurement's own
+            // divergence, "Warped tables"): there the angle form's vector and the f32 vector
+            // differ by a rounding that the value magnifies without bound, so such pairs
+            // compare nothing about the paths.
+            if warped && (a[2].abs() < 1e-3 || b[2].abs() < 1e-3) {
+                continue;
+            }
             for l in [lo, 0.37 * lo + 0.63 * hi, hi, lo - 20.0] {
                 let mut one = [f32::NAN];
                 dec.eval(a, b, &[l], &mut one);

@@ -429,8 +429,10 @@ fn encode_rgb_file_end_to_end() {
         let viewer = unit(s.theta_i, s.phi_i);
         for (k, d) in s.directions.iter().enumerate() {
             let rgb = dec.eval_linear_srgb(unit(d[0], d[1]), viewer, Default::default());
+            // ρ·cos θ of the light, what a renderer sums (ρ grows as 1/cos θ at the horizon).
+            let c = d[0].to_radians().cos();
             for (got, want) in rgb.iter().zip(&s.values[3 * k..3 * k + 3]) {
-                let want = want.max(0.0);
+                let (got, want) = (got * c, want.max(0.0) * c);
                 num += (got - want) * (got - want);
                 den += want * want;
             }
@@ -439,9 +441,8 @@ fn encode_rgb_file_end_to_end() {
     let err = (num / den).sqrt();
     eprintln!("satin_rosaline_rgb.bsdf encoded: colour rel L2 {err:.4} over the reader's samples");
     // The default budget is 1% of each stored incidence's colours in table units (before the
-    // NDF/(4σ cos) factor); in BRDF units near the horizon the factor weighs nodes unevenly,
-    // hence the margin. Negative colours (noise) come back as 0.
-    assert!(err < 0.02, "colour error {err}");
+    // NDF/(4σ) factor); held here at 1.5× that. Negative colours (noise) come back as 0.
+    assert!(err < 0.015, "colour error {err}");
 }
 
 fn unit(theta_deg: f64, phi_deg: f64) -> [f32; 3] {

@@ -348,9 +348,11 @@ impl WarpedEval {
         }
     }
 
-    /// Draws ωo for unit `wi` (z ≥ 0) from `u` ∈ [0, 1)²: with probability [`COSINE_SHARE`] a
-    /// cosine-weighted direction, else the reflection of a half vector drawn from the blended
-    /// VNDF warp. `None` when the drawn direction is below the horizon.
+    /// Draws ωo for unit `wi` (z ≥ 0, the direction the sampler is given: the tables' own)
+    /// from `u` ∈ [0, 1)²: with probability [`COSINE_SHARE`] a cosine-weighted direction, else
+    /// the reflection of a half vector drawn from the blended VNDF warp, mirrored to the upper
+    /// hemisphere (z → −z) when it falls below (so every draw counts; [`WarpedEval::pdf`] adds
+    /// both ways of reaching a direction). `None` only for a degenerate draw (on the horizon).
     pub(crate) fn sample(&self, wi: [f64; 3], u: [f64; 2]) -> Option<[f64; 3]> {
         let (wi2, _, theta_i) = Self::frame(wi, [0.0, 0.0, 1.0]);
         let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
@@ -359,7 +361,7 @@ impl WarpedEval {
         } else {
             (1.0, 0.0)
         };
-        let local = if u[0] < COSINE_SHARE {
+        let mut local = if u[0] < COSINE_SHARE {
             let u0 = u[0] / COSINE_SHARE;
             let rad = u0.sqrt();
             let phi = 2.0 * PI * u[1];
@@ -372,6 +374,7 @@ impl WarpedEval {
             let d = 2.0 * (wi2[0] * m[0] + wi2[2] * m[2]);
             [d * m[0] - wi2[0], d * m[1], d * m[2] - wi2[2]]
         };
+        local[2] = local[2].abs();
         if local[2].is_nan() || local[2] <= 0.0 {
             return None;
         }
@@ -383,31 +386,42 @@ impl WarpedEval {
         ])
     }
 
-    /// The density (1/sr) with which [`WarpedEval::sample`] draws unit `wo` for unit `wi`.
+    /// The density (1/sr) with which [`WarpedEval::sample`] draws unit `wo` (z ≥ 0) for unit
+    /// `wi`: the cosine share, plus the VNDF share at `wo` and at its mirror image below the
+    /// horizon.
     pub(crate) fn pdf(&self, wi: [f64; 3], wo: [f64; 3]) -> f64 {
         let (wi, wo, theta_i) = Self::frame(wi, wo);
         if wo[2] <= 0.0 {
             return 0.0;
         }
-        let cosine = wo[2] / PI;
+        let sl = self.slices(theta_i);
+        let below = [wo[0], wo[1], -wo[2]];
+        let vndf = self.reflected_density(sl, wi, wo) + self.reflected_density(sl, wi, below);
+        COSINE_SHARE * wo[2] / PI + (1.0 - COSINE_SHARE) * vndf
+    }
+
+    /// The density over ωo (any unit vector, the tables' frame) of reflecting `wi` about a half
+    /// vector drawn from the blended warp: p(u)/J(u)/(4 ωo·m), 0 where m is below the horizon or
+    /// faces away from ωo.
+    fn reflected_density(&self, sl: Slices, wi: [f64; 3], wo: [f64; 3]) -> f64 {
         let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
         let len = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
-        let mut vndf = 0.0;
-        if len > 0.0 {
-            let m = [h[0] / len, h[1] / len, h[2] / len];
-            let sin_m = (m[0] * m[0] + m[1] * m[1]).sqrt();
-            let theta_m = sin_m.atan2(m[2]);
-            let ux = (theta_m / FRAC_PI_2).sqrt();
-            let mut uy = (m[1].atan2(m[0]) + PI) / (2.0 * PI);
-            uy -= uy.floor();
-            let jac = jacobian(ux, sin_m);
-            let dot = wo[0] * m[0] + wo[1] * m[1] + wo[2] * m[2];
-            if jac > 0.0 && dot > 0.0 {
-                let sl = self.slices(theta_i);
-                vndf = self.density_u(sl, ux, uy) / jac / (4.0 * dot);
-            }
+        if len.is_nan() || len <= 0.0 || h[2] < 0.0 {
+            return 0.0;
         }
-        COSINE_SHARE * cosine + (1.0 - COSINE_SHARE) * vndf
+        let m = [h[0] / len, h[1] / len, h[2] / len];
+        let sin_m = (m[0] * m[0] + m[1] * m[1]).sqrt();
+        let theta_m = sin_m.atan2(m[2]);
+        let ux = (theta_m / FRAC_PI_2).sqrt();
+        let mut uy = (m[1].atan2(m[0]) + PI) / (2.0 * PI);
+        uy -= uy.floor();
+        let jac = jacobian(ux, sin_m);
+        let dot = wo[0] * m[0] + wo[1] * m[1] + wo[2] * m[2];
+        if jac > 0.0 && dot > 0.0 {
+            self.density_u(sl, ux, uy) / jac / (4.0 * dot)
+        } else {
+            0.0
+        }
     }
 }
 
