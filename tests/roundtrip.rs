@@ -253,7 +253,10 @@ fn golden_files_decode_to_their_source_material() {
                 }
             }
             let e = (num / den).sqrt();
-            assert!(e < 0.015, "{file}: colour error {e} at the measurement's nodes");
+            assert!(
+                e < 0.015,
+                "{file}: colour error {e} at the measurement's nodes"
+            );
             checked += m.records.len();
             continue;
         }
