@@ -414,7 +414,7 @@ class SbrdfFile:
                 if self.warp is not None:
                     raise malformed("%s: second WARP chunk (§3.10)" % where)
                 if self.records:
-                    raise malformed("%s: WARP after the records (§3.10)" % where)
+                    raise malformed("%s: WARP in a file with records (§3.10)" % where)
                 if self.basis == 3 and self.basis_values is None:
                     raise malformed("%s: WARP before SBAS (§3.10)" % where)
                 if not self.isotropic:
@@ -423,6 +423,9 @@ class SbrdfFile:
                 if self.fact is not None:
                     raise malformed("%s: WARP in a file with FACT (§3.10)" % where)
                 self.warp = self.parse_warp(body, where)
+            elif ctype in (b"RECD", b"RECS") and self.warp is not None:
+                # §3.10: a file with WARP holds no records chunk (its records are implied)
+                raise malformed("%s: a records chunk in a file with WARP (§3.10)" % where)
             elif ctype == b"RECD":
                 if self.basis == 3 and self.basis_values is None:
                     raise malformed("%s: RECD before SBAS (§2.5)" % where)
@@ -460,7 +463,7 @@ class SbrdfFile:
             elif ctype == b"ENDF":
                 if length != 0:
                     raise malformed("%s: ENDF must be empty (§3.6)" % where)
-                if len(self.records) != self.n:
+                if self.warp is None and len(self.records) != self.n:
                     raise malformed("%s: ENDF after %d of %d RECD chunks (§2.5)"
                                     % (where, len(self.records), self.n))
                 seen_endf = True
@@ -469,9 +472,9 @@ class SbrdfFile:
             # else: unknown ancillary chunk, skipped after its CRC check (§2.4)
         if not seen_endf:
             raise malformed("file ends without ENDF (§2.5)")
-        self.build_layout()
+        self.build_layout()  # from HEAD's incidences
         if self.warp is not None:
-            self.check_empty_records()
+            # §3.10: the records are implied and empty; the tables answer every query
             self.build_warp()
 
     def parse_head(self, body, where):
@@ -804,7 +807,7 @@ class SbrdfFile:
         """§3.10: the fields of WARP, checked, and its payload inflated to the N·K·R² integers
         (kept in an array, table (i, k) at position (i·K + k)·R², each in diagonal order).
         Placement, the isotropic flag and FACT are checked by the caller, the records once
-        ENDF has been read (check_empty_records); tables, warps and σ by build_warp."""
+        ENDF has been read; tables, warps and σ by build_warp."""
         r = Reader(body, where)
         if len(body) < 12:
             raise malformed("%s: shorter than its 12-byte fixed part (§3.10)" % where)
@@ -895,16 +898,6 @@ class SbrdfFile:
             raise malformed("%s: payload has bytes after its %d-th integer (§3.10)"
                             % (where, count))
         return array("l", ints)
-
-    def check_empty_records(self):
-        """§3.10: every record of a file with WARP is empty: T = 1, L_r = 0, its one SH
-        coefficient +0 (not −0), no lobes, in either precision, as RECD or RECS. (Its θp, φp,
-        rel_error and critical_angle follow §3.3's rules, checked when parsed, and play no
-        part.)"""
-        for i, rec in enumerate(self.records):
-            v = rec.sh[0][0]
-            if rec.terms != 1 or rec.level != 0 or rec.lobes or v != 0 or is_neg_zero(v):
-                raise malformed("record %d of a file with WARP is not empty (§3.10)" % i)
 
     def build_warp(self):
         """EVALUATION.md, "Warped tables": decode the N·K tables (inverse DCT-II), the VNDF warp

@@ -74,35 +74,27 @@ pub fn try_encode(a: &EncodeArgs, settings: &EncodeSettings) -> Result<bool> {
     }
     let meta: MetaLevel = settings.encoder.meta;
     if !matches!(meta, MetaLevel::None) {
+        // What a reader of the file needs to know of its making; what the file itself says
+        // (terms, steps, incidences) is not repeated. `short` leaves out the budget and error.
         let mut m = serde_json::Map::new();
         let mut put = |k: &str, v: serde_json::Value| {
             m.insert(k.to_string(), v);
         };
         put(
             "encoder",
-            format!("sbrdf {} (warped tables)", env!("CARGO_PKG_VERSION")).into(),
+            format!("sbrdf {} warped tables", env!("CARGO_PKG_VERSION")).into(),
         );
-        put("input", name.clone().into());
         let base = a.inputs[0]
             .file_name()
             .map_or_else(|| name.clone(), |f| f.to_string_lossy().into_owned());
         put(&format!("rgl:{base}"), read.description.clone().into());
-        put(
-            "source",
-            "RGL material database (Dupuy & Jakob 2018): the measurement on its own warped grid"
-                .into(),
-        );
         if read.upsampled {
-            put(
-                "rgb_to_spectrum",
-                "jakob-hanika-2019 (the spectra reproduce the colours, not measured spectra)"
-                    .into(),
-            );
+            put("rgb_to_spectrum", "jakob-hanika-2019".into());
         }
-        put("max_error", budget.into());
-        put("rel_error_worst_incidence", worst.into());
-        put("terms", enc.material.spectral.terms.into());
-        put("quantisation_step", enc.step.into());
+        if matches!(meta, MetaLevel::Full) {
+            put("max_error", budget.into());
+            put("rel_error", ((worst * 1e5).round() / 1e5).into());
+        }
         for (k, v) in &settings.encoder.provenance {
             put(k, v.clone().into());
         }

@@ -135,6 +135,42 @@ pub fn cmd_info(a: InfoArgs) -> Result<()> {
             comps.join("; ")
         );
     }
+    if let Some(w) = &m.warped {
+        let steps = w
+            .steps
+            .iter()
+            .cloned()
+            .fold((f32::MAX, 0f32), |(lo, hi), q| (lo.min(q), hi.max(q)));
+        let nonzero = w.levels.iter().filter(|&&z| z != 0).count();
+        println!(
+            "warped tables:  {} incidences × {} terms of {}×{} (Dupuy & Jakob 2018 warp on a \
+             {}×{} VNDF grid from {} NDF nodes, {}), {nonzero} of {} DCT coefficients non-zero, \
+             steps {}–{}",
+            m.records.len(),
+            m.spectral.terms,
+            w.grid,
+            w.grid,
+            w.warp_grid,
+            w.warp_grid,
+            w.ndf.len(),
+            w.ndf_precision.name(),
+            w.levels.len(),
+            steps.0,
+            steps.1
+        );
+        println!(
+            "incidences θv:  {} (viewing directions: the tables follow them, spec/EVALUATION.md)",
+            m.records
+                .iter()
+                .map(|r| r.theta_i.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        if let Some(meta) = &m.metadata {
+            println!("metadata:       {meta}");
+        }
+        return Ok(());
+    }
     let held = m.held_out.as_ref();
     let protocol = held.map(|h| match h.protocol {
         sbrdf::model::material::HeldOutProtocol::Folds(k) => format!("{k}-fold"),

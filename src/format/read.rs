@@ -560,6 +560,13 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                 held_out = read_xval(&mut f, h.incidences.len())?;
             }
             (&CHUNK_RECD, Some(h)) => {
+                if warped.is_some() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "a file with warped tables (WARP) holds no records chunk".into(),
+                    ));
+                }
                 if h.spectral.basis == SpectralBasis::Tabulated && table.is_none() {
                     return Err(malformed(
                         pos,
@@ -587,6 +594,13 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                 records.push(read_record(&mut f, h, records.len())?);
             }
             (&CHUNK_RECS, Some(h)) => {
+                if warped.is_some() {
+                    return Err(malformed(
+                        pos,
+                        Some(kind),
+                        "a file with warped tables (WARP) holds no records chunk".into(),
+                    ));
+                }
                 if h.spectral.basis == SpectralBasis::Tabulated && table.is_none() {
                     return Err(malformed(
                         pos,
@@ -627,6 +641,14 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
             (&CHUNK_ENDF, Some(h)) => {
                 if len != 0 {
                     return Err(malformed(pos, Some(kind), "ENDF must be empty".into()));
+                }
+                if warped.is_some() {
+                    // §3.10: the records of a file with warped tables are implied, empty.
+                    records = h
+                        .incidences
+                        .iter()
+                        .map(|&[t, p]| IncidentRecord::empty(t, p))
+                        .collect();
                 }
                 if records.len() != h.incidences.len() {
                     return Err(malformed(

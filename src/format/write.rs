@@ -199,7 +199,10 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
         push_chunk(&mut out, CHUNK_XVAL, &d);
     }
 
-    if compact {
+    if m.warped.is_some() {
+        // Version 1.4: a file with warped tables has no records chunk; its records are the
+        // empty ones of §3.10, implied.
+    } else if compact {
         // Version 1.3: every record in one chunk, each without index, incidence and reserved
         // bytes, its scale only when it is f16.
         let mut d = Vec::new();

@@ -11,7 +11,8 @@ table is constant q·n/R, and the value at a pair is q·n/R·B_0(λ)·D(u_x)/(4�
 tables blended in θo (σ recomputed here by its own loops); single non-DC coefficients give the
 cosines of the inverse DCT-II in diagonal order; the inverse warp equals the conditional and
 marginal integrals of the bilinear density, integrated numerically here; and every malformed
-case the text lists is refused.
+case the text lists is refused. A file with WARP holds no records chunk (§3.10, §2.5 rules 3
+and 7): the files built here have none, and a RECS or RECD anywhere in one is refused.
 
     python3 tests/python/test_reference_warp.py            # the checks
     python3 tests/python/test_reference_warp.py --timing   # also: time to open larger files
@@ -96,27 +97,26 @@ def warp(r, g, m, c, ndf, steps, payload, layout=1, ndf_prec=1, plen=None):
     return chunk(b"WARP", data)
 
 
-def empty_record(sh=0.0, terms=1, level=0, lobes=b"", nlobes=0, prec=1):
-    """§3.9: one compact record, empty by default (T = 1, L_r = 0, SH +0, no lobe)."""
-    rec = struct.pack("<ffffBBBH", 0.0, 0.0, 0.0, 0.0, nlobes, prec, level, terms)
-    count = terms * (level + 1) ** 2
+def empty_record(prec=1):
+    """§3.9: one compact empty record (T = 1, L_r = 0, SH +0, no lobe), f32 or f16 (scale 1).
+    Only to build files that must be refused: a file with WARP holds no records chunk."""
+    rec = struct.pack("<ffffBBBH", 0.0, 0.0, 0.0, 0.0, 0, prec, 0, 1)
     if prec == 1:
-        rec += struct.pack("<%df" % count, *([sh] * count))
-    else:
-        rec += struct.pack("<f", 1.0) + struct.pack("<%de" % count, *([sh] * count))
-    return rec + lobes
+        return rec + struct.pack("<f", 0.0)
+    return rec + struct.pack("<f", 1.0) + struct.pack("<e", 0.0)
 
 
-def recs(n, **kw):
-    return chunk(b"RECS", b"".join(empty_record(**kw) for _ in range(n)))
+def recs(n, prec=1):
+    """§3.9: a RECS chunk of n empty records (refused in a file with WARP)."""
+    return chunk(b"RECS", b"".join(empty_record(prec) for _ in range(n)))
 
 
-def recd(index, theta, prec=1, scale=1.0, sh=0.0):
-    """§3.3: a RECD record of incidence (θ, 0), empty by default (T = 1, L_r = 0, SH +0), in
-    either precision (for precision 2 the stored f16 value is sh/scale)."""
+def recd(index, theta, prec=1, scale=1.0):
+    """§3.3: an empty RECD record of incidence (θ, 0) (T = 1, L_r = 0, SH +0), in either
+    precision (refused in a file with WARP)."""
     data = struct.pack("<I7f", index, theta, 0.0, 0.0, 0.0, 0.0, 0.0, scale)
     data += struct.pack("<BBBBHH", 0, prec, 0, 0, 1, 0)
-    data += struct.pack("<f", sh) if prec == 1 else struct.pack("<e", sh / scale)
+    data += struct.pack("<f", 0.0) if prec == 1 else struct.pack("<e", 0.0)
     return chunk(b"RECD", data)
 
 
@@ -149,16 +149,19 @@ def base_payload(tables=None, r=R):
 
 def build(warp_chunk=None, head_chunk=None, sbas_chunk=None, records=None, extra=(),
           order=None, tail=b""):
-    """A WARP file; `order` lists the chunks by name to reorder or repeat them."""
+    """A WARP file, with no records chunk (§3.10); `records` (bytes: RECS or RECD chunks) adds
+    them, after WARP unless `order` says otherwise; `order` lists the chunks by name to reorder
+    or repeat them."""
     parts = {
         "HEAD": head_chunk or head(THETAS),
         "SBAS": sbas_chunk or sbas(BASIS),
         "WARP": warp_chunk or warp(R, G, M, C_SCALE, NDF, STEPS, base_payload()),
-        "RECS": records or recs(len(THETAS)),
+        "RECS": records or b"",
         "ENDF": ENDF,
     }
     parts.update(dict(extra))
-    order = order or ["HEAD", "SBAS", "WARP", "RECS", "ENDF"]
+    if order is None:
+        order = ["HEAD", "SBAS", "WARP"] + (["RECS"] if records else []) + ["ENDF"]
     return SIG + b"".join(parts[name] for name in order) + tail
 
 
@@ -344,10 +347,11 @@ def test_command_line():
             ok = all(close(a, b, 1e-11) for a, b in zip(got, want))
         check("command line prints the CSV of sbrdf eval", ok, p.stdout + p.stderr)
         bad = Path(tmp) / "bad.sbrdf"
-        bad.write_bytes(build(records=recs(2, sh=1.0)))
+        bad.write_bytes(build(records=recs(2)))
         p = subprocess.run([sys.executable, str(SPEC / "reference_decoder.py"), str(bad),
                             "--incident=25,0", "--outgoing=30,170"], capture_output=True, text=True)
-        check("command line exits 3 on a malformed WARP file", p.returncode == 3, p.stderr)
+        check("command line exits 3 on a malformed WARP file (a RECS chunk)", p.returncode == 3,
+              p.stderr)
 
 
 def test_dct_and_order():
@@ -371,8 +375,7 @@ def test_dct_and_order():
     hd = head(THETAS, k=2, basis=2, waves=(500.0, 600.0), lam=(500.0, 600.0))
     steps = [1.0, 2.0, 4.0, 8.0]
     tables = [{(0, 0): 4}, {(0, 0): 4}, {(0, 0): 4}, {(0, 0): 4}]
-    f = decode(SIG + hd + warp(R, G, M, C_SCALE, NDF, steps, base_payload(tables)) + recs(2)
-               + ENDF)
+    f = decode(SIG + hd + warp(R, G, M, C_SCALE, NDF, steps, base_payload(tables)) + ENDF)
     consts = [f.warp_tables[i][k][5] for i in range(2) for k in range(2)]
     check("K = 2: table (i, k) uses step q(i·K + k)",
           all(close(x, q * 4 / R) for x, q in zip(consts, steps)), repr(consts))
@@ -534,54 +537,49 @@ def test_refusals():
     refused("payload_length past the chunk", build(warp_chunk=wc(payload, plen=len(payload) + 1)))
     refused("payload_length short of the chunk",
             build(warp_chunk=wc(payload + b"\x00", plen=len(payload))))
-    refused("a non-empty record (SH coefficient 1)", build(records=recs(2, sh=1.0)),
-            contains="not empty")
-    refused("a non-empty record (SH coefficient -0)", build(records=recs(2, sh=-0.0)),
-            contains="not empty")
-    refused("a non-empty record (SH coefficient -0, f16)", build(records=recs(2, sh=-0.0, prec=2)),
-            contains="not empty")
-    refused("a non-empty RECD record (SH coefficient -0)",
-            build(records=recd(0, 10.0) + recd(1, 40.0, sh=-0.0)), contains="not empty")
-    refused("a non-empty RECD record (SH coefficient 1, f16)",
-            build(records=recd(0, 10.0, prec=2, sh=1.0) + recd(1, 40.0)), contains="not empty")
-    lobe = struct.pack("<BBH", 4, 0, 8) + struct.pack("<ff", 0.0, 1.0)
-    refused("a non-empty record (a lobe)", build(records=recs(2, lobes=lobe, nlobes=1)),
-            contains="not empty")
-    refused("a non-empty record (level 1)",
-            build(head_chunk=head(THETAS, level=1), records=recs(2, level=1)),
-            contains="not empty")
-    refused("a non-empty record (T = 2)",
-            build(head_chunk=head(THETAS, k=2), sbas_chunk=sbas(BASIS + BASIS),
-                  warp_chunk=warp(R, G, M, C_SCALE, NDF, STEPS * 2,
-                                  base_payload([{(0, 0): 1}] * 4)),
-                  records=recs(2, terms=2)), contains="not empty")
-    accepted("empty records as RECD chunks",
-             build(records=recd(0, 10.0) + recd(1, 40.0)))
-    accepted("empty records as RECD chunks of precision 2 (scale 1 and 4)",
-             build(records=recd(0, 10.0, prec=2) + recd(1, 40.0, prec=2, scale=4.0)))
-    accepted("empty records of precision 2 in RECS (f16 +0, either precision)",
-             build(records=recs(2, prec=2)))
-    mixed = chunk(b"RECS", empty_record(prec=2) + empty_record(prec=1))
-    accepted("empty records of both precisions in one RECS", build(records=mixed))
-    accepted("empty records with θp, φp, rel_error and critical_angle set (they play no part)",
-             build(records=chunk(b"RECS", b"".join(
-                 struct.pack("<ffff", 30.0, 180.0, 0.25, 12.0) + empty_record()[16:]
-                 for _ in THETAS))))
-    refused("an empty record with θp = -0 (§3.3's rules hold)",
-            build(records=chunk(b"RECS", b"".join(
-                struct.pack("<ffff", -0.0, 0.0, 0.0, 0.0) + empty_record()[16:]
-                for _ in THETAS))), contains="-0")
+    # §3.10, §2.5 rules 3 and 7: a file with WARP holds no records chunk; its N records are
+    # implied and empty, and ENDF follows WARP
+    check("the base file holds no RECS or RECD chunk",
+          b"RECS" not in good and b"RECD" not in good)
+    f = decode(good)
+    got = f.eval(25.0, 0.0, 30.0, 170.0, [500.0, 550.0, 600.0])
+    want = [expected_value(25.0, 0.0, 30.0, 170.0, lam) for lam in (500.0, 550.0, 600.0)]
+    check("a WARP file with no records chunk decodes as before (hand formula)",
+          f.warp is not None and all(close(a, b, 1e-11) for a, b in zip(got, want)),
+          "%r vs %r" % (got, want))
+    accepted("a WARP file with no records chunk and an unknown ancillary chunk after WARP",
+             build(extra={"abcd": chunk(b"abcd", b"xyz")},
+                   order=["HEAD", "SBAS", "WARP", "abcd", "ENDF"]))
+    in_warp = "records chunk in a file with WARP"
+    refused("a RECS of empty records after WARP", build(records=recs(2)), contains=in_warp)
+    refused("a RECS of empty f16 records after WARP", build(records=recs(2, prec=2)),
+            contains=in_warp)
+    refused("a RECS of empty records after WARP and meta",
+            build(records=recs(2), extra={"meta": chunk(b"meta", b"m")},
+                  order=["HEAD", "SBAS", "WARP", "meta", "RECS", "ENDF"]), contains=in_warp)
+    refused("an empty RECD after WARP", build(records=recd(0, 10.0)), contains=in_warp)
+    refused("N empty RECD chunks after WARP", build(records=recd(0, 10.0) + recd(1, 40.0)),
+            contains=in_warp)
+    refused("N empty RECD chunks of precision 2 after WARP",
+            build(records=recd(0, 10.0, prec=2) + recd(1, 40.0, prec=2, scale=4.0)),
+            contains=in_warp)
+    with_records = "WARP in a file with records"
+    refused("RECS (empty records) before WARP",
+            build(records=recs(2), order=["HEAD", "SBAS", "RECS", "WARP", "ENDF"]),
+            contains=with_records)
+    refused("N empty RECD chunks before WARP",
+            build(records=recd(0, 10.0) + recd(1, 40.0),
+                  order=["HEAD", "SBAS", "RECS", "WARP", "ENDF"]), contains=with_records)
     refused("bytes after ENDF", build(tail=b"\x00"), contains="after ENDF")
     refused("WARP without the isotropic flag", build(head_chunk=head(THETAS, flags=0)),
             contains="isotropic")
     facts = {"FACT": fact(2)}
-    refused("WARP with FACT before it", build(extra=facts, order=["HEAD", "SBAS", "FACT", "WARP",
-                                                                  "RECS", "ENDF"]))
-    refused("WARP with FACT after it", build(extra=facts, order=["HEAD", "SBAS", "WARP", "FACT",
-                                                                 "RECS", "ENDF"]))
-    refused("WARP after the records", build(order=["HEAD", "SBAS", "RECS", "WARP", "ENDF"]))
-    refused("WARP before SBAS", build(order=["HEAD", "WARP", "SBAS", "RECS", "ENDF"]))
-    refused("a second WARP", build(order=["HEAD", "SBAS", "WARP", "WARP", "RECS", "ENDF"]))
+    refused("WARP with FACT before it",
+            build(extra=facts, order=["HEAD", "SBAS", "FACT", "WARP", "ENDF"]), contains="FACT")
+    refused("WARP with FACT after it",
+            build(extra=facts, order=["HEAD", "SBAS", "WARP", "FACT", "ENDF"]), contains="FACT")
+    refused("WARP before SBAS", build(order=["HEAD", "WARP", "SBAS", "ENDF"]))
+    refused("a second WARP", build(order=["HEAD", "SBAS", "WARP", "WARP", "ENDF"]))
     refused("an unknown layout (as unsupported)", build(warp_chunk=wc(payload, layout=2)),
             kind="unsupported")
     refused("an unknown NDF precision (as unsupported)", build(warp_chunk=wc(payload, ndf_prec=3)),
@@ -626,17 +624,17 @@ def test_refusals():
     hd = head([0.0], basis=1, waves=(500.0,), lam=(500.0, 500.0))
     refused("a VNDF total of 0 (G = 3, NDF zero at x = 0.5 and 1)",
             SIG + hd + warp(R, 3, 3, C_SCALE, [1.0, 0.0, 0.0], [0.5], base_payload([{(0, 0): 8}]))
-            + recs(1) + ENDF, contains="total 0")
+            + ENDF, contains="total 0")
     # N·G² > 2^24 is refused before anything is allocated (257 incidences, G = 256)
     many = [i * 0.25 for i in range(257)]
     hd = head(many, basis=1, waves=(500.0,), lam=(500.0, 500.0))
     start = time.time()
     refused("N·G² above 2^24", SIG + hd + warp(R, 256, M, C_SCALE, NDF, [1.0] * 257, payload)
-            + recs(257) + ENDF, contains="2^24")
+            + ENDF, contains="2^24")
     many = [i * 0.25 for i in range(17)]
     hd = head(many, k=256, basis=1, waves=(500.0, 600.0))
     refused("N·K·R² above 2^24", SIG + hd + warp(64, G, M, C_SCALE, NDF, [1.0] * 17 * 256,
-                                                 payload) + recs(17) + ENDF, contains="2^24")
+                                                 payload) + ENDF, contains="2^24")
     check("size limits are checked before allocating (fast)", time.time() - start < 2.0)
     flipped = bytearray(good)
     flipped[len(good) // 2] ^= 0x10
@@ -661,7 +659,7 @@ def timing():
                         tab[(a, b)] = rng.randint(-200, 200) // (1 + a + b)
             tables.append(tab)
         data = SIG + hd + warp(r, g, m, 1.0, ndf, [0.01] * (n * k),
-                               zlib.compress(payload_of(tables, r), 9)) + recs(n) + ENDF
+                               zlib.compress(payload_of(tables, r), 9)) + ENDF
         start = time.time()
         f = decode(data)
         opened = time.time() - start
