@@ -276,10 +276,13 @@ fn spectral_version(name: &str) -> Vec<u8> {
             .collect();
         let mut spectra = Vec::new();
         for slice in 0..(np * nt) as usize {
-            for l in 0..wl.len() {
+            let weights: Vec<[f64; 3]> = (0..wl.len())
+                .map(|l| [primaries[0][l], primaries[1][l], primaries[2][l]])
+                .collect();
+            for w in &weights {
                 for p in 0..r * r {
                     let v: f64 = (0..3)
-                        .map(|c| rgb[(slice * 3 + c) * r * r + p] as f64 * primaries[c][l])
+                        .map(|c| rgb[(slice * 3 + c) * r * r + p] as f64 * w[c])
                         .sum();
                     spectra.extend_from_slice(&(v as f32).to_le_bytes());
                 }
