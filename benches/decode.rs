@@ -169,6 +169,14 @@ fn materials() -> Vec<Bench> {
     let dec = Decoder::from_bytes(&bytes).unwrap();
     let table = RawTable::resampled(&dec);
     out.push(("ptfe6", dec, bytes, table, vec![1, 4]));
+    // An RGL measurement as warped tables (format 1.4, the golden file), against a table of
+    // its own values on the 5° grid at its stored incidences.
+    let golden = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("samples/golden/rgl_paper_warp_v14.sbrdf");
+    let bytes = std::fs::read(golden).unwrap();
+    let dec = Decoder::from_bytes(&bytes).unwrap();
+    let table = RawTable::resampled(&dec);
+    out.push(("rgl_paper", dec, bytes, table, vec![1, 4, 41]));
     out
 }
 

@@ -45,13 +45,19 @@ fn an_opened_material_holds_at_most_four_times_its_file() {
     for p in &paths {
         let bytes = std::fs::read(p).unwrap();
         // Warped tables are compressed: the decoder expands them, as FORMAT.md §8 states, to
-        // binary64 tables (N·K·R²) and warps (2·N·G² + 2·N·G), beside the stored integers and
-        // the NDF and σ nodes; that expansion is their bound, on top of the 4× of the rest.
+        // binary64 tables (N·K·R²), the VNDF warps (2·N·G² + 2·N·G) and the sampling warps of
+        // the tables' values (2·N·R² + 2·N·R), beside the stored integers and the NDF and σ
+        // nodes; that expansion is their bound, on top of the 4× of the rest.
         let material = sbrdf::read_material(&bytes, &sbrdf::Limits::default()).unwrap();
         let (n, k) = (material.records.len(), material.spectral.terms);
         let expansion = material.warped.as_ref().map_or(0, |w| {
             let (r, g, m) = (w.grid, w.warp_grid, w.ndf.len());
-            12 * n * k * r * r + 8 * (2 * n * g * g + 2 * n * g) + 12 * m + 8 * n + 4096
+            12 * n * k * r * r
+                + 8 * (2 * n * g * g + 2 * n * g)
+                + 8 * (2 * n * r * r + 2 * n * r)
+                + 12 * m
+                + 8 * n
+                + 4096
         });
         drop(material);
         let before = LIVE.load(Ordering::SeqCst);

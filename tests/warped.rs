@@ -130,7 +130,13 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
 
 #[test]
 fn every_budget_is_met_and_bytes_fall_as_it_grows() {
-    let inp = input("satin_rosaline");
+    for name in MATERIALS {
+        budgets_are_met(name);
+    }
+}
+
+fn budgets_are_met(name: &str) {
+    let inp = input(name);
     let mut last = usize::MAX;
     for budget in [0.002, 0.005, 0.01, 0.02, 0.05] {
         let enc = encode_warped(
@@ -143,7 +149,7 @@ fn every_budget_is_met_and_bytes_fall_as_it_grows() {
         .unwrap();
         let worst = enc.errors.iter().cloned().fold(0.0, f64::max);
         let size = write_material(&enc.material).unwrap().len();
-        eprintln!("satin_rosaline at {budget}: worst {worst:.5}, {size} bytes");
+        eprintln!("{name} at {budget}: worst {worst:.5}, {size} bytes");
         assert!(enc.met && worst <= budget, "{budget}: {worst}");
         assert!(size < last, "{budget}: {size} bytes, not fewer than {last}");
         last = size;

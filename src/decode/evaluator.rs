@@ -139,6 +139,11 @@ impl Evaluator {
         let first = material.records.first().map_or(0.0, |r| r.theta_i as f64);
         let last = material.records.last().map_or(0.0, |r| r.theta_i as f64);
         let res = Resident::new(material);
+        let warped = material.warped.as_ref().and_then(|w| {
+            let thetas: Vec<f32> = material.records.iter().map(|r| r.theta_i).collect();
+            let means = super::sampling::basis_means(&res);
+            WarpedEval::new(w, &thetas, material.spectral.terms, &means).map(Box::new)
+        });
         let n = res.recs.len();
         let alone = (0..n).map(|r| BlendInfo::of(&res, &[r])).collect();
         let pairs = match lattice {
@@ -159,10 +164,7 @@ impl Evaluator {
             pairs,
             on_line,
             kernel: None,
-            warped: material.warped.as_ref().and_then(|w| {
-                let thetas: Vec<f32> = material.records.iter().map(|r| r.theta_i).collect();
-                WarpedEval::new(w, &thetas, material.spectral.terms).map(Box::new)
-            }),
+            warped,
             lattice,
             small,
             theta_ends: [end(first), end(last)],

@@ -14,6 +14,7 @@ mod line;
 mod one;
 mod resident;
 pub mod sampling;
+mod warp2d;
 mod warped;
 
 pub use decoder::Decoder;

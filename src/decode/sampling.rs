@@ -135,7 +135,7 @@ impl SamplingWeights {
 
 /// The mean of each basis function over the file's wavelengths: Σ_k c_k·mean_k is the
 /// spectrum-averaged value of a coefficient vector c.
-fn basis_means(res: &super::resident::Resident) -> Vec<f64> {
+pub(crate) fn basis_means(res: &super::resident::Resident) -> Vec<f64> {
     let k = res.spectrum.terms();
     let mut sum = vec![0.0; k];
     let mut b = vec![0.0; k];

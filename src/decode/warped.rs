@@ -3,6 +3,7 @@
 //! from the stored NDF, then per query the inverse warp of the half vector, blended between the
 //! two stored incidences around θi as Mitsuba's `measured` plugin blends its slices.
 
+use super::warp2d::{lerp, Slices, Warp};
 use crate::model::warped::{half_vector, jacobian, lerp_nodes, ndf_at, WarpedModel};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -13,9 +14,8 @@ const COSINE_SHARE: f64 = super::sampling::MIN_COSINE_WEIGHT;
 /// A warped-table material ready for queries.
 #[derive(Debug, Clone)]
 pub(crate) struct WarpedEval {
-    /// Table side R, VNDF grid side G, terms K.
+    /// Table side R and terms K.
     r: usize,
-    g: usize,
     k: usize,
     /// Stored incidences θ_i (radians), increasing.
     theta: Vec<f64>,
@@ -25,29 +25,12 @@ pub(crate) struct WarpedEval {
     /// Tables (i, k) at (i·K + k)·R², row-major (rows along s_y). Binary64, as the spec asks of
     /// evaluation: in binary32 the inverse warp near the horizon moved values by up to 2·10⁻⁴.
     tables: Vec<f64>,
-    /// Per stored incidence, the normalised density p (G²), its conditional integrals (G²), row
-    /// totals (G) and marginal (G).
-    p: Vec<f64>,
-    cond: Vec<f64>,
-    row: Vec<f64>,
-    marg: Vec<f64>,
-}
-
-/// The blend of two stored incidences' warp tables: index `a` weighted 1 − t, `b` weighted t.
-#[derive(Clone, Copy)]
-struct Slices {
-    a: usize,
-    b: usize,
-    t: f64,
-}
-
-impl Slices {
-    #[inline]
-    fn mix64(&self, v: &[f64], stride: usize, at: usize) -> f64 {
-        let x = v[self.a * stride + at];
-        let y = v[self.b * stride + at];
-        x + (y - x) * self.t
-    }
+    /// Per stored incidence, the VNDF warp (G × G): where the tables' nodes lie.
+    vndf: Warp,
+    /// Per stored incidence, the warp of the tables' spectrum-averaged values (R × R, clamped
+    /// at 0): importance sampling draws a node there first, as Mitsuba's `measured` draws from
+    /// its luminance table, then maps it through the VNDF warp.
+    values: Warp,
 }
 
 /// The per-node factor D(x_a)·sin θm·π x_a·2π and the half vectors of a G × G grid.
@@ -111,7 +94,12 @@ pub(crate) fn vndf_totals(ndf: &[f32], g: usize, thetas: &[f64]) -> Vec<f64> {
 impl WarpedEval {
     /// Prepares a validated model for `thetas_deg` (HEAD's θi) and `k` terms. `None` when a
     /// stored incidence's VNDF or a σ node is zero (the reader refuses such files).
-    pub(crate) fn new(w: &WarpedModel, thetas_deg: &[f32], k: usize) -> Option<Self> {
+    pub(crate) fn new(
+        w: &WarpedModel,
+        thetas_deg: &[f32],
+        k: usize,
+        basis_means: &[f64],
+    ) -> Option<Self> {
         let (g, n, m) = (w.warp_grid, thetas_deg.len(), w.ndf.len());
         let theta: Vec<f64> = thetas_deg
             .iter()
@@ -129,58 +117,48 @@ impl WarpedEval {
             }
             sigma.push(s);
         }
-        let (mut p, mut cond) = (Vec::with_capacity(n * g * g), Vec::with_capacity(n * g * g));
-        let (mut row, mut marg) = (Vec::with_capacity(n * g), Vec::with_capacity(n * g));
-        let half = 0.5 / (g - 1) as f64;
-        for &t in &theta {
-            let total = grid.density(t, &mut scratch);
-            if !(total > 0.0 && total.is_finite()) {
-                return None;
-            }
-            let inv = 1.0 / total;
-            scratch.iter_mut().for_each(|v| *v *= inv);
-            let mut rows = vec![0.0; g];
-            for b in 0..g {
-                let mut acc = 0.0;
-                cond.push(0.0);
-                for a in 1..g {
-                    acc += half * (scratch[b * g + a - 1] + scratch[b * g + a]);
-                    cond.push(acc);
-                }
-                rows[b] = acc;
-            }
-            let mut mg = 0.0;
-            marg.push(0.0);
-            for b in 1..g {
-                mg += half * (rows[b - 1] + rows[b]);
-                marg.push(mg);
-            }
-            row.extend_from_slice(&rows);
-            p.extend_from_slice(&scratch);
+        let mut densities = vec![0.0; n * g * g];
+        for (&t, d) in theta.iter().zip(densities.chunks_exact_mut(g * g)) {
+            grid.density(t, d);
         }
+        let vndf = Warp::new(g, &densities)?;
+        drop(densities);
         let tables = w.decode_tables();
+        // Spectrum-averaged table values per node (the basis means weigh the terms), at 0 where
+        // negative, plus a floor of 10⁻³ of the slice's mean so that no node the VNDF reaches
+        // is left out of sampling (the cosine share covers the rest).
+        let rr = w.grid * w.grid;
+        let mut averaged = vec![0.0; n * rr];
+        for (i, slice) in averaged.chunks_exact_mut(rr).enumerate() {
+            for (p, v) in slice.iter_mut().enumerate() {
+                let sum: f64 = (0..k)
+                    .map(|t| tables[(i * k + t) * rr + p] * basis_means[t])
+                    .sum();
+                *v = sum.max(0.0);
+            }
+            let mean = slice.iter().sum::<f64>() / rr as f64;
+            let floor = if mean > 0.0 { 1e-3 * mean } else { 1.0 };
+            slice.iter_mut().for_each(|v| *v += floor);
+        }
+        let values = Warp::new(w.grid, &averaged)?;
         Some(WarpedEval {
             r: w.grid,
-            g,
+
             k,
             theta,
             ndf: w.ndf.clone(),
             sigma,
             tables,
-            p,
-            cond,
-            row,
-            marg,
+            vndf,
+            values,
         })
     }
 
     pub(crate) fn heap_bytes(&self) -> usize {
-        8 * (self.theta.capacity() + self.sigma.capacity() + self.row.capacity())
-            + 8 * (self.marg.capacity()
-                + self.tables.capacity()
-                + self.p.capacity()
-                + self.cond.capacity())
+        8 * (self.theta.capacity() + self.sigma.capacity() + self.tables.capacity())
             + 4 * self.ndf.capacity()
+            + self.vndf.heap_bytes()
+            + self.values.heap_bytes()
     }
 
     /// The stored incidences around θ (radians) and the weight of the upper one.
@@ -201,80 +179,6 @@ impl WarpedEval {
             b: i + 1,
             t: t.clamp(0.0, 1.0),
         }
-    }
-
-    /// The inverse warp: half-vector parameter u → warped point s, with blended tables.
-    #[inline]
-    fn invert(&self, sl: Slices, ux: f64, uy: f64) -> (f64, f64) {
-        let g = self.g;
-        let gg = g * g;
-        let n1 = (g - 1) as f64;
-        let fx = ux.clamp(0.0, 1.0) * n1;
-        let fy = uy.clamp(0.0, 1.0) * n1;
-        let a = (fx.floor() as usize).min(g - 2);
-        let b = (fy.floor() as usize).min(g - 2);
-        let (tx, ty) = (fx - a as f64, fy - b as f64);
-        let p = |bb: usize, aa: usize| sl.mix64(&self.p, gg, bb * g + aa);
-        let c0 = lerp(p(b, a), p(b + 1, a), ty);
-        let c1 = lerp(p(b, a + 1), p(b + 1, a + 1), ty);
-        let before = lerp(
-            sl.mix64(&self.cond, gg, b * g + a),
-            sl.mix64(&self.cond, gg, (b + 1) * g + a),
-            ty,
-        );
-        let within = tx * (c0 + 0.5 * (c1 - c0) * tx) / n1;
-        let (r0, r1) = (sl.mix64(&self.row, g, b), sl.mix64(&self.row, g, b + 1));
-        let total = lerp(r0, r1, ty);
-        let sx = if total > 0.0 {
-            (before + within) / total
-        } else {
-            0.0
-        };
-        let sy = sl.mix64(&self.marg, g, b) + ty * (r0 + 0.5 * (r1 - r0) * ty) / n1;
-        (sx.clamp(0.0, 1.0), sy.clamp(0.0, 1.0))
-    }
-
-    /// The blended, normalised density over u at (ux, uy).
-    #[inline]
-    fn density_u(&self, sl: Slices, ux: f64, uy: f64) -> f64 {
-        let g = self.g;
-        let n1 = (g - 1) as f64;
-        let fx = ux.clamp(0.0, 1.0) * n1;
-        let fy = uy.clamp(0.0, 1.0) * n1;
-        let a = (fx.floor() as usize).min(g - 2);
-        let b = (fy.floor() as usize).min(g - 2);
-        let (tx, ty) = (fx - a as f64, fy - b as f64);
-        let p = |bb: usize, aa: usize| sl.mix64(&self.p, g * g, bb * g + aa);
-        lerp(
-            lerp(p(b, a), p(b, a + 1), tx),
-            lerp(p(b + 1, a), p(b + 1, a + 1), tx),
-            ty,
-        )
-    }
-
-    /// The forward warp: uniform (sx, sy) → half-vector parameter u, with blended tables.
-    fn warp(&self, sl: Slices, sx: f64, sy: f64) -> (f64, f64) {
-        let g = self.g;
-        let gg = g * g;
-        let n1 = (g - 1) as f64;
-        let marg = |b: usize| sl.mix64(&self.marg, g, b);
-        let b = interval(g, sy, marg);
-        let (r0, r1) = (sl.mix64(&self.row, g, b), sl.mix64(&self.row, g, b + 1));
-        let ty = solve_segment((sy - marg(b)) * n1, r0, r1);
-        let target = sx * lerp(r0, r1, ty);
-        let crow = |a: usize| {
-            lerp(
-                sl.mix64(&self.cond, gg, b * g + a),
-                sl.mix64(&self.cond, gg, (b + 1) * g + a),
-                ty,
-            )
-        };
-        let a = interval(g, target, crow);
-        let p = |bb: usize, aa: usize| sl.mix64(&self.p, gg, bb * g + aa);
-        let c0 = lerp(p(b, a), p(b + 1, a), ty);
-        let c1 = lerp(p(b, a + 1), p(b + 1, a + 1), ty);
-        let tx = solve_segment((target - crow(a)) * n1, c0, c1);
-        ((a as f64 + tx) / n1, (b as f64 + ty) / n1)
     }
 
     /// The query turned so that its incident azimuth is 0 (the tables' frame), with θi.
@@ -318,7 +222,7 @@ impl WarpedEval {
         let mut uy = (phi_m + PI) / (2.0 * PI);
         uy -= uy.floor();
         let sl = self.slices(theta_i);
-        let (sx, sy) = self.invert(sl, ux, uy);
+        let (sx, sy) = self.vndf.invert(sl, ux, uy);
         let xi = (theta_i.max(0.0) / FRAC_PI_2).sqrt();
         let sigma = lerp_nodes(self.sigma.len(), xi, |j| self.sigma[j]);
         let f = ndf_at(&self.ndf, ux) / (4.0 * sigma) / wo[2];
@@ -369,7 +273,8 @@ impl WarpedEval {
         } else {
             let u0 = ((u[0] - COSINE_SHARE) / (1.0 - COSINE_SHARE)).min(1.0);
             let sl = self.slices(theta_i);
-            let (ux, uy) = self.warp(sl, u0, u[1]);
+            let (sx, sy) = self.values.sample(sl, u0, u[1]);
+            let (ux, uy) = self.vndf.sample(sl, sx, sy);
             let (m, _) = half_vector(ux, uy);
             let d = 2.0 * (wi2[0] * m[0] + wi2[2] * m[2]);
             [d * m[0] - wi2[0], d * m[1], d * m[2] - wi2[2]]
@@ -418,16 +323,13 @@ impl WarpedEval {
         let jac = jacobian(ux, sin_m);
         let dot = wo[0] * m[0] + wo[1] * m[1] + wo[2] * m[2];
         if jac > 0.0 && dot > 0.0 {
-            self.density_u(sl, ux, uy) / jac / (4.0 * dot)
+            // The density over u: the values' density at the warped point times the VNDF's.
+            let (sx, sy) = self.vndf.invert(sl, ux, uy);
+            self.values.density(sl, sx, sy) * self.vndf.density(sl, ux, uy) / jac / (4.0 * dot)
         } else {
             0.0
         }
     }
-}
-
-#[inline]
-fn lerp(a: f64, b: f64, t: f64) -> f64 {
-    a + (b - a) * t
 }
 
 /// Bilinear interpolation of an n × n table (rows along y) at (x, y) ∈ [0, 1]².
@@ -445,32 +347,4 @@ fn bilerp(g: &[f64], n: usize, x: f64, y: f64) -> f64 {
         lerp(v(iy + 1, ix), v(iy + 1, ix + 1), tx),
         ty,
     )
-}
-
-/// The first interval k ∈ [0, n−2] whose upper CDF value reaches s.
-#[inline]
-fn interval(n: usize, s: f64, cdf_at: impl Fn(usize) -> f64) -> usize {
-    let (mut lo, mut hi) = (0usize, n - 1);
-    while lo + 1 < hi {
-        let mid = (lo + hi) / 2;
-        if cdf_at(mid) < s {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    (hi - 1).min(n - 2)
-}
-
-/// τ ∈ [0, 1] with ∫₀^τ lerp(v0, v1, t) dt = a.
-#[inline]
-fn solve_segment(a: f64, v0: f64, v1: f64) -> f64 {
-    let a = a.max(0.0);
-    let disc = (v0 * v0 + 2.0 * a * (v1 - v0)).max(0.0);
-    let den = v0 + disc.sqrt();
-    if den > 0.0 {
-        (2.0 * a / den).clamp(0.0, 1.0)
-    } else {
-        0.0
-    }
 }
