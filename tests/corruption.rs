@@ -160,6 +160,7 @@ fn hostile_counts_and_structure_are_refused_without_allocating() {
         &bytes,
         &Limits {
             max_file_bytes: 100,
+            ..Limits::default()
         },
     )
     .unwrap_err();

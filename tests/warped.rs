@@ -422,6 +422,28 @@ fn damage_behind_a_valid_crc_is_refused_or_decoded_never_a_panic() {
 }
 
 #[test]
+fn tables_that_would_cost_too_much_to_open_are_refused_before_inflating() {
+    // A 3 kB file whose header asks for 4096 NDF nodes on a 256² VNDF grid: 2.7·10⁸ operations
+    // to open. Refused as a limit exceeded (Limits::max_warp_work), not parsed further.
+    let good = std::fs::read(samples_dir().join("golden/rgl_paper_warp_v14.sbrdf")).unwrap();
+    let (at, len) = warp_chunk(&good);
+    let mut b = good.clone();
+    b[at + 4..at + 6].copy_from_slice(&256u16.to_le_bytes());
+    b[at + 6..at + 8].copy_from_slice(&4096u16.to_le_bytes());
+    fix_crc(&mut b, at, len);
+    let e = Decoder::from_bytes(&b).unwrap_err();
+    assert!(matches!(e, sbrdf::Error::LimitsExceeded(_)), "{e}");
+    // A caller who accepts the cost gets the ordinary answer: this header no longer matches
+    // the bytes that follow it.
+    let lax = sbrdf::Limits {
+        max_warp_work: u64::MAX,
+        ..Default::default()
+    };
+    let e = sbrdf::read_material(&b, &lax).unwrap_err().to_string();
+    assert!(e.contains("malformed"), "{e}");
+}
+
+#[test]
 fn a_file_written_and_read_back_is_the_same_material_and_bytes() {
     let enc = encode_warped(
         &input("cc_ibiza_sunset"),

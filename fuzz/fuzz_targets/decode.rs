@@ -9,7 +9,11 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let m = dec.material();
-    let wl = [m.spectral.lambda_min as f32, m.spectral.lambda_max as f32, 550.0];
+    let wl = [
+        m.spectral.lambda_min as f32,
+        m.spectral.lambda_max as f32,
+        550.0,
+    ];
     let mut out = [0.0f32; 3];
     for (wi, wo) in [
         ([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]),
@@ -19,7 +23,10 @@ fuzz_target!(|data: &[u8]| {
         dec.eval(wi, wo, &wl, &mut out);
         // Finite stored values can still overflow f32 when summed; what must never happen is a
         // NaN from the evaluation itself.
-        assert!(out.iter().all(|v| !v.is_nan()), "NaN from a file that validated");
+        assert!(
+            out.iter().all(|v| !v.is_nan()),
+            "NaN from a file that validated"
+        );
     }
     let _ = sbrdf::write_material(m).expect("a material that was read can be written");
 });

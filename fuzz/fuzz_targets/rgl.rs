@@ -20,5 +20,11 @@ fuzz_target!(|data: &[u8]| {
     let options = ReadOptions {
         rgb_to_spectrum: Some(RgbToSpectrum::JakobHanika2019),
     };
-    let _ = sbrdf::io::read_inputs_from_bytes_with(&[("fuzz_rgb.bsdf".into(), data.to_vec())], &options);
+    let _ = sbrdf::io::read_inputs_from_bytes_with(
+        &[("fuzz_rgb.bsdf".into(), data.to_vec())],
+        &options,
+    );
+    // What warped tables read of it (spectral files only: an RGB one would be upsampled node
+    // by node, the heavy path above).
+    let _ = sbrdf::io::rgl::read_warped("fuzz_spec.bsdf", data, &ReadOptions::default());
 });

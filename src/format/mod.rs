@@ -87,12 +87,18 @@ pub struct Limits {
     /// Files larger than this are refused before parsing. Every allocation the reader makes is
     /// bounded by the bytes actually present, so memory use stays within about twice this.
     pub max_file_bytes: usize,
+    /// Warped tables (`WARP`) are compressed, and opening one costs work no byte count bounds:
+    /// (M + N)·G² operations to rebuild σ and the VNDF warps, and 2·N·K·R³ for the inverse DCT
+    /// (`spec/FORMAT.md` §8). Files above this are refused as a limit exceeded before anything
+    /// is inflated. The default, 2²⁷ (about 0.2 s here), is 60× what an RGL file needs.
+    pub max_warp_work: u64,
 }
 
 impl Default for Limits {
     fn default() -> Self {
         Limits {
             max_file_bytes: 256 << 20,
+            max_warp_work: 1 << 27,
         }
     }
 }

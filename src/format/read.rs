@@ -550,6 +550,7 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                     &mut f,
                     h.incidences.len(),
                     h.spectral.terms,
+                    limits,
                 )?));
             }
             (&CHUNK_XVAL, Some(h)) => {

@@ -19,7 +19,12 @@ fn inflate_bound(p: usize) -> usize {
 }
 
 /// Reads a `WARP` chunk for a file of `n` incidences and `k` terms.
-pub(super) fn read_warped(f: &mut Fields, n: usize, k: usize) -> Result<WarpedModel> {
+pub(super) fn read_warped(
+    f: &mut Fields,
+    n: usize,
+    k: usize,
+    limits: &super::Limits,
+) -> Result<WarpedModel> {
     let layout = f.u8("layout")?;
     if layout != LAYOUT_ISOTROPIC {
         return Err(f.unsupported(format!("unknown warped-table layout {layout}")));
@@ -44,6 +49,14 @@ pub(super) fn read_warped(f: &mut Fields, n: usize, k: usize) -> Result<WarpedMo
         return Err(f.malformed(format!(
             "{n} incidences × {k} terms of {r}² values, or × {g}² VNDF nodes, exceed \
              {MAX_WARP_VALUES}"
+        )));
+    }
+    let work = (m as u64 + n as u64) * (g * g) as u64 + 2 * values * r as u64;
+    if work > limits.max_warp_work {
+        return Err(crate::error::Error::LimitsExceeded(format!(
+            "warped tables that cost {work} operations to open ((M + N)·G² + 2·N·K·R³ with \
+             M = {m}, N = {n}, G = {g}, K = {k}, R = {r}), above the limit of {}",
+            limits.max_warp_work
         )));
     }
     let sigma_scale = f.f32("sigma_scale")?;
