@@ -44,6 +44,10 @@ pub struct WarpedInput {
     /// measured there, and exactly D terms are stored, solved so that the map of each
     /// rebuilt spectrum is the measurement's (the quantised tables aside).
     pub metric: Option<Metric>,
+    /// With a metric, the measured values themselves (D per node, node-major), when the
+    /// spectra only approximate them (an RGB colour a spectral upsampling cannot reach): the
+    /// tables then reproduce these, not the spectra's map.
+    pub measured: Option<Vec<f64>>,
 }
 
 /// A linear map of spectra (W values) to D measured values, row-major.
@@ -111,6 +115,14 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
     // What errors are measured on: the spectra, or their map by the metric.
     let (y, dy) = match &input.metric {
         None => (x.clone(), w),
+        Some(m)
+            if input
+                .measured
+                .as_ref()
+                .is_some_and(|v| v.len() == nodes * m.rows) =>
+        {
+            (input.measured.clone().unwrap_or_default(), m.rows)
+        }
         Some(m) => {
             let mut y = vec![0.0; nodes * m.rows];
             for (s, o) in x.chunks_exact(w).zip(y.chunks_exact_mut(m.rows)) {

@@ -95,6 +95,17 @@ pub fn read_warped(
             metric: upsampler
                 .as_ref()
                 .map(|_| srgb_metric(&UPSAMPLED_WAVELENGTHS)),
+            // The colours as measured: where Jakob & Hanika's spectra cannot reach one (very
+            // saturated colours), the tables still give it back.
+            measured: upsampler.as_ref().map(|_| {
+                per_node
+                    .iter()
+                    .flat_map(|&(t, p)| {
+                        let v = bsdf.values_at(t, 0);
+                        (0..3).map(move |c| v[c * r * r + p] as f64)
+                    })
+                    .collect()
+            }),
         },
         description: bsdf.description.trim().to_string(),
         upsampled: upsampler.is_some(),
