@@ -119,8 +119,10 @@ pub struct EncodeOptionArgs {
     )]
     pub lobes: Vec<LobeArg>,
     /// Relative error budget per incident direction (0.01 = 1%): with --peak joint, the smallest
-    /// model (spectral terms, SH level, lobe, precision) meeting it. Given explicitly, the encode
-    /// fails where it cannot be met [default with --peak joint: 0.5%, best effort].
+    /// model (spectral terms, SH level, lobe, precision) meeting it; with warped tables (one RGL
+    /// file), the largest quantisation step meeting it at every stored incidence. Given
+    /// explicitly, the encode fails where it cannot be met [default with --peak joint: 0.5%,
+    /// best effort; with warped tables: 1%].
     #[arg(long, value_name = "E")]
     pub max_error: Option<String>,
     /// With --max-error: write the most accurate model where the budget cannot be met, and
