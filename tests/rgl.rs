@@ -302,36 +302,9 @@ fn rgb_to_spectrum_round_trip() {
 /// `wavelengths`, channel c of the RGB going to wavelength c·step (a stand-in: no `_spec`
 /// file is shipped, and the reader treats both alike).
 fn spectral_from_rgb(name: &str, wavelengths: &[f32]) -> Vec<u8> {
-    let bytes = read(name);
-    let tf = TensorFile::parse(&bytes).unwrap();
-    let mut fields: Vec<(&str, u8, Vec<u64>, Vec<u8>)> = Vec::new();
-    for f in &tf.fields {
-        let code = match f.dtype {
-            DType::U8 => 1,
-            DType::U32 => 5,
-            DType::F32 => 10,
-            d => panic!("unexpected dtype {d}"),
-        };
-        if f.name != "rgb" {
-            fields.push((f.name.as_str(), code, f.shape.clone(), tf.data(f).to_vec()));
-            continue;
-        }
-        let (np, nt, r) = (f.shape[0], f.shape[1], f.shape[3]);
-        let rgb = tf.data(f);
-        let n = wavelengths.len() as u64;
-        let mut spectra = Vec::with_capacity((np * nt * n * r * r * 4) as usize);
-        for slice in 0..np * nt {
-            for l in 0..n {
-                let c = (l * 3 / n) as usize; // R, G, B spread over the wavelengths
-                let start = ((slice * 3 + c as u64) * r * r * 4) as usize;
-                spectra.extend_from_slice(&rgb[start..start + (r * r * 4) as usize]);
-            }
-        }
-        let wl: Vec<u8> = wavelengths.iter().flat_map(|w| w.to_le_bytes()).collect();
-        fields.push(("wavelengths", 10, vec![n], wl));
-        fields.push(("spectra", 10, vec![np, nt, n, r, r], spectra));
-    }
-    write_tensor(&fields)
+    let n = wavelengths.len();
+    // R, G, B spread over the wavelengths.
+    common::rgl_spectral(&read(name), wavelengths, |l, rgb| rgb[l * 3 / n])
 }
 
 #[test]

@@ -5,14 +5,13 @@
 //! damage to the chunk behind a valid CRC.
 
 mod common;
-use common::samples_dir;
+use common::{samples_dir, sbrdf, stderr};
 use sbrdf::encode::samples::{ReadOptions, RgbToSpectrum};
 use sbrdf::encode::warped::{encode_warped, WarpedInput, WarpedOptions, DEFAULT_MAX_ERROR};
-use sbrdf::io::rgl::{read_warped, write_tensor, DType, RglBsdf, TensorFile};
+use sbrdf::io::rgl::{read_warped, RglBsdf};
 use sbrdf::io::synth::SpectrumTable;
 use sbrdf::{write_material, Decoder};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 const MATERIALS: [&str; 3] = ["cc_ibiza_sunset", "paper_white", "satin_rosaline"];
 
@@ -34,14 +33,6 @@ fn input(name: &str) -> WarpedInput {
         .unwrap()
         .unwrap()
         .input
-}
-
-fn sbrdf(args: &[&str], dir: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_sbrdf"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
 }
 
 fn unit(theta_deg: f64, phi_deg: f64) -> [f32; 3] {
@@ -108,7 +99,7 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
             ],
             dir.path(),
         );
-        let e = String::from_utf8_lossy(&o.stderr);
+        let e = stderr(&o);
         assert!(o.status.success(), "{e}");
         let bytes = std::fs::read(dir.path().join(&out)).unwrap();
         eprintln!("{name}: {} bytes; {e}", bytes.len());
@@ -175,12 +166,12 @@ fn an_unreachable_budget_is_refused_with_the_best_figure_and_nothing_written() {
     };
     std::fs::copy(data("paper_white"), dir.path().join("x.sbrdf")).unwrap();
     let o = sbrdf(&args(&[]), dir.path());
-    let e = String::from_utf8_lossy(&o.stderr);
+    let e = stderr(&o);
     assert!(!o.status.success(), "{e}");
     assert!(e.contains("at best") && e.contains("x.sbrdf"), "{e}");
     assert!(!dir.path().join("out.sbrdf").exists());
     let o = sbrdf(&args(&["--best-effort"]), dir.path());
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "{}", stderr(&o));
     assert!(dir.path().join("out.sbrdf").exists());
 }
 
@@ -253,7 +244,6 @@ fn an_incidence_left_out_is_predicted_from_its_neighbours() {
 /// every 10 nm.
 fn spectral_version(name: &str) -> Vec<u8> {
     let bytes = std::fs::read(data(name)).unwrap();
-    let tf = TensorFile::parse(&bytes).unwrap();
     let wl: Vec<f64> = (0..41).map(|i| 380.0 + 10.0 * i as f64).collect();
     let table = SpectrumTable::colorchecker();
     let patch = |p: &str| {
@@ -262,48 +252,10 @@ fn spectral_version(name: &str) -> Vec<u8> {
         s.into_iter().map(|v| v / peak).collect::<Vec<_>>()
     };
     let primaries = [patch("red"), patch("green"), patch("blue")];
-    let mut fields: Vec<(&str, u8, Vec<u64>, Vec<u8>)> = Vec::new();
-    for f in &tf.fields {
-        let code = match f.dtype {
-            DType::U8 => 1,
-            DType::U32 => 5,
-            DType::F32 => 10,
-            d => panic!("unexpected dtype {d}"),
-        };
-        if f.name != "rgb" {
-            fields.push((f.name.as_str(), code, f.shape.clone(), tf.data(f).to_vec()));
-            continue;
-        }
-        let (np, nt, r) = (f.shape[0], f.shape[1], f.shape[3] as usize);
-        let rgb: Vec<f32> = tf
-            .data(f)
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
-            .collect();
-        let mut spectra = Vec::new();
-        for slice in 0..(np * nt) as usize {
-            let weights: Vec<[f64; 3]> = (0..wl.len())
-                .map(|l| [primaries[0][l], primaries[1][l], primaries[2][l]])
-                .collect();
-            for w in &weights {
-                for p in 0..r * r {
-                    let v: f64 = (0..3)
-                        .map(|c| rgb[(slice * 3 + c) * r * r + p] as f64 * w[c])
-                        .sum();
-                    spectra.extend_from_slice(&(v as f32).to_le_bytes());
-                }
-            }
-        }
-        let w: Vec<u8> = wl.iter().flat_map(|&v| (v as f32).to_le_bytes()).collect();
-        fields.push(("wavelengths", 10, vec![wl.len() as u64], w));
-        fields.push((
-            "spectra",
-            10,
-            vec![np, nt, wl.len() as u64, r as u64, r as u64],
-            spectra,
-        ));
-    }
-    write_tensor(&fields)
+    let wl32: Vec<f32> = wl.iter().map(|&v| v as f32).collect();
+    common::rgl_spectral(&bytes, &wl32, |l, rgb| {
+        (0..3).map(|c| rgb[c] as f64 * primaries[c][l]).sum::<f64>() as f32
+    })
 }
 
 #[test]
@@ -314,7 +266,7 @@ fn a_spectral_source_keeps_its_spectra_within_the_budget_and_size() {
         let spec = spectral_version(name);
         std::fs::write(dir.path().join("spec.bsdf"), &spec).unwrap();
         let o = sbrdf(&["encode", "spec.bsdf", "-o", "spec.sbrdf"], dir.path());
-        let e = String::from_utf8_lossy(&o.stderr);
+        let e = stderr(&o);
         assert!(o.status.success(), "{e}");
         let bytes = std::fs::read(dir.path().join("spec.sbrdf")).unwrap();
         eprintln!("{name} (41 bands): {} bytes; {e}", bytes.len());

@@ -351,42 +351,35 @@ impl Evaluator {
             out.fill(0.0);
             return;
         }
-        let (phi, wo) = if self.res.isotropic {
-            (0.0, dir_from_deg(outgoing.0, outgoing.1 - incident.1))
-        } else {
-            (incident.1, dir_from_deg(outgoing.0, outgoing.1))
+        // A non-finite wavelength gives 0; the value is clamped at 0 unless asked not to.
+        let write = |c: &[f64], t: &FactorTerms, out: &mut [f64]| {
+            for (o, &l) in out.iter_mut().zip(wavelengths) {
+                let v = self.value_with_factor(c, t, l);
+                *o = if clamp { v.max(0.0) } else { v };
+            }
         };
+        let no_factor = [0.0; MAX_COMPONENTS * MAX_RANK];
         if let Some(w) = &self.warped {
             // The vectors as given: the tables turn by the viewing azimuth ("Warped tables").
             let (wi, wo) = (
                 dir_from_deg(incident.0, incident.1),
                 dir_from_deg(outgoing.0, outgoing.1),
             );
-            w.with_coefficients(wi, wo, |c| {
-                for (o, &l) in out.iter_mut().zip(wavelengths) {
-                    let v = if l.is_finite() {
-                        self.res.spectrum.dot(c, l)
-                    } else {
-                        0.0
-                    };
-                    *o = if clamp { v.max(0.0) } else { v };
-                }
-            });
+            w.with_coefficients(wi, wo, |c| write(c, &no_factor, out));
             return;
         }
+        let (phi, wo) = if self.res.isotropic {
+            (0.0, dir_from_deg(outgoing.0, outgoing.1 - incident.1))
+        } else {
+            (incident.1, dir_from_deg(outgoing.0, outgoing.1))
+        };
         let inc = self.incident(incident.0, phi, None);
         // The factor model sees the query as it is (its features are clamped to the ranges it
         // was fitted on); the records, the nearest stored incidences.
         let t = self
             .factor_terms(dir_from_deg(incident.0, phi), wo)
-            .unwrap_or([0.0; MAX_COMPONENTS * MAX_RANK]);
-        self.outgoing(&inc, wo, |c| {
-            for (o, &l) in out.iter_mut().zip(wavelengths) {
-                // A non-finite wavelength gives 0; the value is clamped at 0 unless asked not to.
-                let v = self.value_with_factor(c, &t, l);
-                *o = if clamp { v.max(0.0) } else { v };
-            }
-        });
+            .unwrap_or(no_factor);
+        self.outgoing(&inc, wo, |c| write(c, &t, out));
     }
 
     /// The records to blend for a query incidence (θ, φ in degrees, in the records' frame), the

@@ -124,14 +124,7 @@ impl Warp {
     #[inline]
     pub(crate) fn density(&self, sl: Slices, x: f64, y: f64) -> f64 {
         let (n, nn) = (self.n, self.n * self.n);
-        let (a, tx) = self.cell(x);
-        let (b, ty) = self.cell(y);
-        let p = |bb: usize, aa: usize| sl.mix(&self.p, nn, bb * n + aa);
-        lerp(
-            lerp(p(b, a), p(b, a + 1), tx),
-            lerp(p(b + 1, a), p(b + 1, a + 1), tx),
-            ty,
-        )
+        bilerp(n, x, y, |b, a| sl.mix(&self.p, nn, b * n + a))
     }
 
     /// The forward warp: a uniform point (sx, sy) → a point of the density's square.
@@ -173,6 +166,24 @@ pub(crate) fn total(d: &[f64], n: usize) -> f64 {
     (0..n)
         .map(|b| w(b) * (0..n).map(|a| w(a) * d[b * n + a]).sum::<f64>())
         .sum()
+}
+
+/// Bilinear interpolation of n × n nodes `at(row, column)` (rows along y) at (x, y) ∈ [0, 1]²,
+/// clamped to the square; at 1 the last cell is used.
+#[inline]
+pub(crate) fn bilerp(n: usize, x: f64, y: f64, at: impl Fn(usize, usize) -> f64) -> f64 {
+    let cell = |v: f64| {
+        let f = v.clamp(0.0, 1.0) * (n - 1) as f64;
+        let i = (f.floor() as usize).min(n - 2);
+        (i, f - i as f64)
+    };
+    let (a, tx) = cell(x);
+    let (b, ty) = cell(y);
+    lerp(
+        lerp(at(b, a), at(b, a + 1), tx),
+        lerp(at(b + 1, a), at(b + 1, a + 1), tx),
+        ty,
+    )
 }
 
 #[inline]

@@ -3,7 +3,8 @@
 //! from the stored NDF, then per query the inverse warp of the half vector, blended between the
 //! two stored incidences around θi as Mitsuba's `measured` plugin blends its slices.
 
-use super::warp2d::{lerp, Slices, Warp};
+use super::lattice::QueryFrame;
+use super::warp2d::{bilerp, total, Slices, Warp};
 use crate::model::warped::{half_vector, jacobian, lerp_nodes, ndf_at, WarpedModel};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -59,27 +60,11 @@ impl Grid {
     /// The unnormalised VNDF density at incidence θ (radians) into `p`; returns its total
     /// (trapezoid rule, rows of a then over b).
     fn density(&self, theta: f64, p: &mut [f64]) -> f64 {
-        let g = self.g;
         let (s, c) = theta.sin_cos();
-        let w = |i: usize| {
-            if i == 0 || i == g - 1 {
-                0.5 / (g - 1) as f64
-            } else {
-                1.0 / (g - 1) as f64
-            }
-        };
-        let mut total = 0.0;
-        for b in 0..g {
-            let mut row = 0.0;
-            for a in 0..g {
-                let m = self.m[b * g + a];
-                let v = self.factor[b * g + a] * (s * m[0] + c * m[2]).max(0.0);
-                p[b * g + a] = v;
-                row += w(a) * v;
-            }
-            total += w(b) * row;
+        for ((v, m), f) in p.iter_mut().zip(&self.m).zip(&self.factor) {
+            *v = f * (s * m[0] + c * m[2]).max(0.0);
         }
-        total
+        total(p, self.g)
     }
 }
 
@@ -181,18 +166,24 @@ impl WarpedEval {
         }
     }
 
-    /// The query turned so that its incident azimuth is 0 (the tables' frame), with θi.
+    /// The frame turned about z so that the tables' direction `wi` has azimuth 0 (none at the
+    /// pole), and that direction's θ in radians.
     #[inline]
-    fn frame(wi: [f64; 3], wo: [f64; 3]) -> ([f64; 3], [f64; 3], f64) {
+    fn frame(wi: [f64; 3]) -> (QueryFrame, f64) {
         let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
         let (c, s) = if r > 0.0 {
             (wi[0] / r, wi[1] / r)
         } else {
             (1.0, 0.0)
         };
-        let wi2 = [r, 0.0, wi[2]];
-        let wo2 = [c * wo[0] + s * wo[1], -s * wo[0] + c * wo[1], wo[2]];
-        (wi2, wo2, r.atan2(wi[2]))
+        let theta = r.atan2(wi[2]);
+        let q = QueryFrame {
+            theta: theta.to_degrees(),
+            phi: 0.0,
+            wi: [r, 0.0, wi[2]],
+            rotation: Some((c, s)),
+        };
+        (q, theta)
     }
 
     /// The blended table values v_k times D(u_x)/(4σ(θv))/cos θi: the spectral coefficients of
@@ -206,7 +197,8 @@ impl WarpedEval {
         let c = &mut c[..self.k];
         c.fill(0.0);
         // The tables' own direction (the viewer's) first, the light's second.
-        let (wi, wo, theta_i) = Self::frame(wo, wi);
+        let (q, theta_i) = Self::frame(wo);
+        let (wi, wo) = (q.wi, q.in_frame(wi));
         if wo[2] <= 0.0 {
             return false;
         }
@@ -230,8 +222,8 @@ impl WarpedEval {
         for (k, ck) in c.iter_mut().enumerate() {
             let ta = &self.tables[(sl.a * self.k + k) * rr..][..rr];
             let tb = &self.tables[(sl.b * self.k + k) * rr..][..rr];
-            let va = bilerp(ta, self.r, sx, sy);
-            let vb = bilerp(tb, self.r, sx, sy);
+            let va = bilerp(self.r, sx, sy, |b, a| ta[b * self.r + a]);
+            let vb = bilerp(self.r, sx, sy, |b, a| tb[b * self.r + a]);
             *ck = (va + (vb - va) * sl.t) * f;
         }
         true
@@ -258,13 +250,8 @@ impl WarpedEval {
     /// hemisphere (z → −z) when it falls below (so every draw counts; [`WarpedEval::pdf`] adds
     /// both ways of reaching a direction). `None` only for a degenerate draw (on the horizon).
     pub(crate) fn sample(&self, wi: [f64; 3], u: [f64; 2]) -> Option<[f64; 3]> {
-        let (wi2, _, theta_i) = Self::frame(wi, [0.0, 0.0, 1.0]);
-        let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
-        let (c, s) = if r > 0.0 {
-            (wi[0] / r, wi[1] / r)
-        } else {
-            (1.0, 0.0)
-        };
+        let (q, theta_i) = Self::frame(wi);
+        let wi2 = q.wi;
         let mut local = if u[0] < COSINE_SHARE {
             let u0 = u[0] / COSINE_SHARE;
             let rad = u0.sqrt();
@@ -283,19 +270,15 @@ impl WarpedEval {
         if local[2].is_nan() || local[2] <= 0.0 {
             return None;
         }
-        // Back to the query's frame: rotate by the incident azimuth.
-        Some([
-            c * local[0] - s * local[1],
-            s * local[0] + c * local[1],
-            local[2],
-        ])
+        Some(q.out_of_frame(local))
     }
 
     /// The density (1/sr) with which [`WarpedEval::sample`] draws unit `wo` (z ≥ 0) for unit
     /// `wi`: the cosine share, plus the VNDF share at `wo` and at its mirror image below the
     /// horizon.
     pub(crate) fn pdf(&self, wi: [f64; 3], wo: [f64; 3]) -> f64 {
-        let (wi, wo, theta_i) = Self::frame(wi, wo);
+        let (q, theta_i) = Self::frame(wi);
+        let (wi, wo) = (q.wi, q.in_frame(wo));
         if wo[2] <= 0.0 {
             return 0.0;
         }
@@ -330,21 +313,4 @@ impl WarpedEval {
             0.0
         }
     }
-}
-
-/// Bilinear interpolation of an n × n table (rows along y) at (x, y) ∈ [0, 1]².
-#[inline]
-fn bilerp(g: &[f64], n: usize, x: f64, y: f64) -> f64 {
-    let n1 = (n - 1) as f64;
-    let fx = x.clamp(0.0, 1.0) * n1;
-    let fy = y.clamp(0.0, 1.0) * n1;
-    let ix = (fx.floor() as usize).min(n - 2);
-    let iy = (fy.floor() as usize).min(n - 2);
-    let (tx, ty) = (fx - ix as f64, fy - iy as f64);
-    let v = |yy: usize, xx: usize| g[yy * n + xx];
-    lerp(
-        lerp(v(iy, ix), v(iy, ix + 1), tx),
-        lerp(v(iy + 1, ix), v(iy + 1, ix + 1), tx),
-        ty,
-    )
 }

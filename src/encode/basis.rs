@@ -81,14 +81,22 @@ pub(crate) fn singular_vectors(set: &SampleSet, rank: usize) -> Vec<f64> {
             Some(&i) => (0..w).map(|j| v_t[(i, j)]).collect(),
             None => (0..w).map(|j| if j == k { 1.0 } else { 0.0 }).collect(),
         };
-        let big = row
-            .iter()
-            .cloned()
-            .fold(0.0f64, |a, v| if v.abs() > a.abs() { v } else { a });
-        let sign = if big < 0.0 { -1.0 } else { 1.0 };
-        values.extend(row.iter().map(|v| sign * v));
+        values.extend(sign_fixed(row));
     }
     values
+}
+
+/// A basis vector with a deterministic sign: positive at its largest entry (the first of
+/// equal ones), so that the same data always gives the same stored basis.
+pub(crate) fn sign_fixed(mut v: Vec<f64>) -> Vec<f64> {
+    let big = v
+        .iter()
+        .cloned()
+        .fold(0.0f64, |a, x| if x.abs() > a.abs() { x } else { a });
+    if big < 0.0 {
+        v.iter_mut().for_each(|x| *x = -*x);
+    }
+    v
 }
 
 /// The most terms a basis supports on `w` wavelength samples: the periodic Fourier series sees

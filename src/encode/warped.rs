@@ -13,6 +13,7 @@
 //! measurement's value before the NDF/(4σ cos θo) factor, which the warp makes roughly uniform
 //! in importance). The worst stored incidence is held to the budget.
 
+use crate::encode::basis::sign_fixed;
 use crate::error::{Error, Result};
 use crate::model::material::{IncidentRecord, Material};
 use crate::model::spectral::{BasisTable, SpectralBasis, SpectralSpace};
@@ -308,20 +309,24 @@ fn principal_basis(x: &[f64], w: usize) -> Vec<f64> {
             cov[(a, b)] = cov[(b, a)];
         }
     }
-    let eig = SymmetricEigen::new(cov);
-    let mut order: Vec<usize> = (0..w).collect();
-    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
     let mut out = Vec::with_capacity(w * w);
-    for &j in &order {
-        let col = eig.eigenvectors.column(j);
-        let big = col
-            .iter()
-            .cloned()
-            .fold(0.0f64, |m, v| if v.abs() > m.abs() { v } else { m });
-        let sign = if big < 0.0 { -1.0 } else { 1.0 };
-        out.extend(col.iter().map(|v| f16::from_f64(sign * v).to_f64()));
+    for axis in principal_axes(cov) {
+        out.extend(axis.iter().map(|&v| f16::from_f64(v).to_f64()));
     }
     out
+}
+
+/// The eigenvectors of a symmetric matrix, largest eigenvalue first, each with the
+/// deterministic sign of the data-derived basis ([`sign_fixed`]).
+fn principal_axes(cov: DMatrix<f64>) -> Vec<Vec<f64>> {
+    let n = cov.nrows();
+    let eig = SymmetricEigen::new(cov);
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    order
+        .iter()
+        .map(|&j| sign_fixed(eig.eigenvectors.column(j).iter().cloned().collect()))
+        .collect()
 }
 
 /// Least-squares coefficients (K per node, node-major) of every spectrum on the K basis rows.
@@ -382,33 +387,13 @@ impl Target<'_> {
     }
 
     /// Relative L2 error per incidence of the spectra rebuilt from coefficients `c` (K per
-    /// node) on `basis`, against `y`, normalised by `norms`.
+    /// node, every incidence) on `basis`, against `y`, normalised by `norms`.
     fn errors(&self, c: &[f64], basis: &[f64], k: usize, norms: &[f64]) -> Vec<f64> {
-        let (w, d, per) = (self.w, self.d, self.r * self.r);
-        let mut s = vec![0.0; w];
-        let mut m = vec![0.0; d];
+        let per = self.r * self.r * k;
         norms
             .iter()
             .enumerate()
-            .map(|(i, norm)| {
-                let mut e = 0.0;
-                for p in i * per..(i + 1) * per {
-                    for (l, sv) in s.iter_mut().enumerate() {
-                        *sv = (0..k).map(|t| c[p * k + t] * basis[t * w + l]).sum();
-                    }
-                    let rebuilt: &[f64] = match self.metric {
-                        Some(mt) => {
-                            mt.apply(&s, &mut m);
-                            &m
-                        }
-                        None => &s,
-                    };
-                    for (a, b) in rebuilt.iter().zip(&self.y[p * d..(p + 1) * d]) {
-                        e += (a - b) * (a - b);
-                    }
-                }
-                e.sqrt() / norm
-            })
+            .map(|(i, &norm)| self.error_of(i, &c[i * per..(i + 1) * per], basis, k, norm))
             .collect()
     }
 }
@@ -439,19 +424,10 @@ fn metric_orthonormal(
             }
         }
     }
-    let eig = SymmetricEigen::new(cov);
-    let mut order: Vec<usize> = (0..d).collect();
-    order.sort_by(|&i, &j| eig.eigenvalues[j].total_cmp(&eig.eigenvalues[i]));
     let mut v = DMatrix::<f64>::zeros(d, d);
-    for (col, &j) in order.iter().enumerate() {
-        let e = eig.eigenvectors.column(j);
-        let big = e
-            .iter()
-            .cloned()
-            .fold(0.0f64, |m, x| if x.abs() > m.abs() { x } else { m });
-        let sign = if big < 0.0 { -1.0 } else { 1.0 };
-        for i in 0..d {
-            v[(i, col)] = sign * e[i];
+    for (col, axis) in principal_axes(cov).iter().enumerate() {
+        for (i, &x) in axis.iter().enumerate() {
+            v[(i, col)] = x;
         }
     }
     // B' = Vᵀ·A⁻ᵀ·B: then P·B'ᵀ = P·Bᵀ·A⁻¹·V = V, orthogonal.

@@ -467,6 +467,13 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
             chunk: kind,
         };
         let next = pos + 12 + len;
+        if warped.is_some() && (kind == CHUNK_RECD || kind == CHUNK_RECS) {
+            return Err(malformed(
+                pos,
+                Some(kind),
+                "a file with warped tables (WARP) holds no records chunk".into(),
+            ));
+        }
         match (&kind, &head) {
             (&CHUNK_HEAD, None) => head = Some(read_head(&mut f)?),
             (_, None) => {
@@ -561,13 +568,6 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                 held_out = read_xval(&mut f, h.incidences.len())?;
             }
             (&CHUNK_RECD, Some(h)) => {
-                if warped.is_some() {
-                    return Err(malformed(
-                        pos,
-                        Some(kind),
-                        "a file with warped tables (WARP) holds no records chunk".into(),
-                    ));
-                }
                 if h.spectral.basis == SpectralBasis::Tabulated && table.is_none() {
                     return Err(malformed(
                         pos,
@@ -595,13 +595,6 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                 records.push(read_record(&mut f, h, records.len())?);
             }
             (&CHUNK_RECS, Some(h)) => {
-                if warped.is_some() {
-                    return Err(malformed(
-                        pos,
-                        Some(kind),
-                        "a file with warped tables (WARP) holds no records chunk".into(),
-                    ));
-                }
                 if h.spectral.basis == SpectralBasis::Tabulated && table.is_none() {
                     return Err(malformed(
                         pos,

@@ -188,3 +188,53 @@ pub fn error_on_paper_grid(
     }
     rel_l2(&approx, &reference)
 }
+
+/// An RGL tensor file with its `rgb` field replaced by `spectra` at `wavelengths` (and a
+/// `wavelengths` field), every other field kept: node p of slice s at wavelength index l gets
+/// `mix(l, [R, G, B])` of that node.
+pub fn rgl_spectral(
+    rgb_file: &[u8],
+    wavelengths: &[f32],
+    mix: impl Fn(usize, [f32; 3]) -> f32,
+) -> Vec<u8> {
+    use sbrdf::io::rgl::{write_tensor, DType, TensorFile};
+    let tf = TensorFile::parse(rgb_file).unwrap();
+    let mut fields: Vec<(&str, u8, Vec<u64>, Vec<u8>)> = Vec::new();
+    for f in &tf.fields {
+        let code = match f.dtype {
+            DType::U8 => 1,
+            DType::U32 => 5,
+            DType::F32 => 10,
+            d => panic!("unexpected dtype {d}"),
+        };
+        if f.name != "rgb" {
+            fields.push((f.name.as_str(), code, f.shape.clone(), tf.data(f).to_vec()));
+            continue;
+        }
+        let (np, nt, r) = (f.shape[0], f.shape[1], f.shape[3] as usize);
+        let rgb: Vec<f32> = tf
+            .data(f)
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        let n = wavelengths.len();
+        let mut spectra = Vec::with_capacity((np * nt) as usize * n * r * r * 4);
+        for slice in 0..(np * nt) as usize {
+            for l in 0..n {
+                for p in 0..r * r {
+                    let at = |c: usize| rgb[(slice * 3 + c) * r * r + p];
+                    spectra.extend_from_slice(&mix(l, [at(0), at(1), at(2)]).to_le_bytes());
+                }
+            }
+        }
+        let wl: Vec<u8> = wavelengths.iter().flat_map(|w| w.to_le_bytes()).collect();
+        fields.push(("wavelengths", 10, vec![n as u64], wl));
+        fields.push((
+            "spectra",
+            10,
+            vec![np, nt, n as u64, r as u64, r as u64],
+            spectra,
+        ));
+    }
+    write_tensor(&fields)
+}
