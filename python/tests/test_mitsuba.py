@@ -14,12 +14,6 @@ it is set; CI prints them.
   reported).
 """
 
-import json
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -27,39 +21,12 @@ mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 is not installed (pip inst
 dr = pytest.importorskip("drjit", reason="Dr.Jit is not installed (it comes with mitsuba)")
 
 import analytic  # noqa: E402  (python/tests, beside this file)
+from support import llvm_status, record  # noqa: E402  (python/tests, beside this file)
 import sbrdf  # noqa: E402
 
 SCALAR = ["scalar_spectral", "scalar_rgb"]
 LLVM = ["llvm_ad_spectral", "llvm_ad_rgb"]
 RES, SPP = 64, 16
-REPORT = os.environ.get("SBRDF_MITSUBA_REPORT")
-
-_llvm = {}
-
-
-def llvm_status():
-    """(works, why not): renders a tiny scene with the LLVM backend in a child process, since
-    an LLVM too old for Dr.Jit aborts the process (LLVM 15: 'Cannot select ... fminimum')."""
-    if "status" not in _llvm:
-        code = (
-            "import drjit as dr, mitsuba as mi\n"
-            "assert dr.has_backend(dr.JitBackend.LLVM), 'no LLVM backend found'\n"
-            "mi.set_variant('llvm_ad_rgb')\n"
-            "s = mi.load_dict({'type': 'scene', 'i': {'type': 'path'}, 's': {'type': 'sphere'},"
-            " 'e': {'type': 'constant'}, 'c': {'type': 'perspective',"
-            " 'film': {'type': 'hdrfilm', 'width': 4, 'height': 4}}})\n"
-            "import numpy as np\n"
-            "print(float(np.mean(np.array(mi.render(s)))))\n"
-        )
-        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                              timeout=300)
-        if done.returncode == 0:
-            _llvm["status"] = (True, "")
-        else:
-            tail = (done.stderr.strip().splitlines() or ["(no message)"])[-1][:200]
-            _llvm["status"] = (False, f"Dr.Jit's LLVM backend cannot render here (exit "
-                                      f"{done.returncode}: {tail}); install libllvm19")
-    return _llvm["status"]
 
 
 def use_variant(variant):
@@ -72,14 +39,6 @@ def use_variant(variant):
     plugin.register()
     ref = analytic.reference_bsdf_class(mi, dr)
     mi.register_bsdf("analytic_reference", lambda props: ref(props))
-
-
-def record(key, value):
-    if not REPORT:
-        return
-    data = json.loads(Path(REPORT).read_text()) if Path(REPORT).exists() else {}
-    data[key] = value
-    Path(REPORT).write_text(json.dumps(data, indent=1, sort_keys=True))
 
 
 @pytest.fixture(scope="session")

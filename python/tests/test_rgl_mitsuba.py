@@ -26,19 +26,11 @@ import pytest
 mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 is not installed (pip install mitsuba)")
 
 import sbrdf  # noqa: E402
+from support import record  # noqa: E402  (python/tests, beside this file)
 
 ROOT = Path(__file__).resolve().parents[2]
 FILES = [ROOT / "tests/data/rgl" / f"{name}_rgb.bsdf"
          for name in ("paper_white", "satin_rosaline", "cc_ibiza_sunset")]
-REPORT = os.environ.get("SBRDF_MITSUBA_REPORT")
-
-
-def record(key, value):
-    if not REPORT:
-        return
-    data = json.loads(Path(REPORT).read_text()) if Path(REPORT).exists() else {}
-    data[key] = value
-    Path(REPORT).write_text(json.dumps(data, indent=1, sort_keys=True))
 
 
 def direction(theta, phi):

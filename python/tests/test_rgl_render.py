@@ -20,10 +20,8 @@ binary and of the input). Figures land in $SBRDF_MITSUBA_REPORT (JSON) when it i
 
 import hashlib
 import importlib.util
-import json
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -33,10 +31,11 @@ mi = pytest.importorskip("mitsuba", reason="Mitsuba 3 is not installed (pip inst
 pytest.importorskip("drjit", reason="Dr.Jit is not installed (it comes with mitsuba)")
 pytest.importorskip("sbrdf", reason="the sbrdf binding is not installed (pip install ./python)")
 
+from support import llvm_status, record  # noqa: E402  (python/tests, beside this file)
+
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests/data/rgl"
 MATERIALS = ["paper_white", "satin_rosaline", "cc_ibiza_sunset"]
-REPORT = os.environ.get("SBRDF_MITSUBA_REPORT")
 
 # Small enough for CI (a few seconds per material and variant), large enough to cover the
 # sphere's highlights: 64² pixels, 32 environment samples per pixel, a 64² albedo grid
@@ -54,41 +53,6 @@ def load_tool(name):
 
 rgl_render = load_tool("rgl_render")
 make_spec_bsdf = load_tool("make_spec_bsdf")
-
-_llvm = {}
-
-
-def llvm_status():
-    """(works, why not): renders a tiny scene with the LLVM backend in a child process, since
-    an LLVM too old for Dr.Jit aborts the process (LLVM 15: 'Cannot select ... fminimum')."""
-    if "status" not in _llvm:
-        code = (
-            "import drjit as dr, mitsuba as mi\n"
-            "assert dr.has_backend(dr.JitBackend.LLVM), 'no LLVM backend found'\n"
-            "mi.set_variant('llvm_ad_rgb')\n"
-            "s = mi.load_dict({'type': 'scene', 'i': {'type': 'path'}, 's': {'type': 'sphere'},"
-            " 'e': {'type': 'constant'}, 'c': {'type': 'perspective',"
-            " 'film': {'type': 'hdrfilm', 'width': 4, 'height': 4}}})\n"
-            "import numpy as np\n"
-            "print(float(np.mean(np.array(mi.render(s)))))\n"
-        )
-        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                              timeout=300)
-        if done.returncode == 0:
-            _llvm["status"] = (True, "")
-        else:
-            tail = (done.stderr.strip().splitlines() or ["(no message)"])[-1][:200]
-            _llvm["status"] = (False, f"Dr.Jit's LLVM backend cannot render here (exit "
-                                      f"{done.returncode}: {tail}); install libllvm19")
-    return _llvm["status"]
-
-
-def record(key, value):
-    if not REPORT:
-        return
-    data = json.loads(Path(REPORT).read_text()) if Path(REPORT).exists() else {}
-    data[key] = value
-    Path(REPORT).write_text(json.dumps(data, indent=1, sort_keys=True))
 
 
 def sha256(path):
