@@ -82,6 +82,12 @@ def encoded(sbrdf_bin, workdir, material, kind):
     if key in _encoded:
         return _encoded[key]
     src = DATA / f"{material}_rgb.bsdf"
+    if kind == "cyan":
+        cyan = workdir / f"{material}_cyan_rgb.bsdf"
+        fields = make_spec_bsdf.read_tensor_file(src)
+        fields["rgb"] = out_of_gamut(fields["rgb"])
+        make_spec_bsdf.write_tensor_file(cyan, fields)
+        src = cyan
     if kind == "spec":
         spec = workdir / f"{material}_spec.bsdf"
         make_spec_bsdf.write_tensor_file(spec, make_spec_bsdf.make_spec(
@@ -93,13 +99,31 @@ def encoded(sbrdf_bin, workdir, material, kind):
     out = cache / f"{material}_{kind}_{tag}.sbrdf"
     if not out.exists():
         cmd = [str(sbrdf_bin), "encode", str(src), "-o", str(out) + ".part"]
-        if kind == "rgb":
+        if kind in ("rgb", "cyan"):
             cmd += ["--rgb-to-spectrum", "jakob-hanika-2019"]
         done = subprocess.run(cmd, capture_output=True, text=True)
         assert done.returncode == 0, f"{' '.join(cmd)} failed:\n{done.stderr[-2000:]}"
         os.replace(str(out) + ".part", out)
     _encoded[key] = (src, out)
     return _encoded[key]
+
+
+def out_of_gamut(rgb):
+    """The measurement recoloured as RGL's colour-changing films are coloured (the chromaticity
+    quartiles of cc_iris_purple_gem): blue-cyan outside sRGB (a negative red) near normal
+    incidence, turning purple by 50° and grey at grazing; each node's sum r + g + b kept, plus
+    a fifth of its own deviation from grey."""
+    rgb = rgb.astype(np.float64)
+    n = rgb.shape[1]
+    at = np.array([0.0, 1.0, 3.0, 6.0]) * (n - 1) / 7.0
+    tints = np.array([[-0.12, 0.32, 0.80], [-0.06, 0.25, 0.81], [0.36, 0.16, 0.43],
+                      [0.33, 0.33, 0.34]])
+    tint = np.stack([np.interp(np.arange(n), at, tints[:, c]) for c in range(3)], axis=-1)
+    tint /= tint.sum(axis=-1, keepdims=True)
+    total = rgb.sum(axis=2, keepdims=True)
+    grey = total / 3.0
+    out = total * tint.reshape(1, n, 3, 1, 1) + 0.2 * (rgb - grey)
+    return out.astype(np.float32)
 
 
 def test_tensor_file_round_trip_and_spectral_recipe():
@@ -163,6 +187,28 @@ def test_renders_like_mitsuba_measured(material, variant, sbrdf_bin, workdir):
         + f"\n  (swap diagnostic: as rendered {sw['as_rendered_rel_l1']:.4f}, swapped "
           f"{sw['swapped_rel_l1']:.4f}, measured vs itself swapped "
           f"{sw['measured_vs_measured_swapped_rel_l1']:.4f})")
+
+
+def test_colours_outside_srgb_render_like_mitsuba_measured(sbrdf_bin, workdir):
+    """A measurement whose colours have a negative red (outside sRGB): Mitsuba's RGB
+    ``measured`` renders the negative channel as it is, and a file's spectra, which the decoder
+    clamps at 0, must still give it back (the spectral basis is chosen so that they can), to
+    the same targets as the shipped materials."""
+    ok, why = llvm_status()
+    if not ok:
+        pytest.skip(why)
+    bsdf, sbrdf_file = encoded(sbrdf_bin, workdir, "satin_rosaline", "cyan")
+    red = make_spec_bsdf.read_tensor_file(bsdf)["rgb"][:, :, 0]
+    assert (red[:, 0] < 0).mean() > 0.5, "the recoloured measurement is not outside sRGB"
+    out = rgl_render.run(bsdf, sbrdf_file, variant="llvm_ad_rgb", res=RES, spp=SPP,
+                         albedo_grid=ALBEDO_GRID, swap_pairs=SWAP_PAIRS, log=lambda *a: None)
+    record("rgl_render/satin_rosaline_cyan/llvm_ad_rgb", {
+        "render": {c: r["rel_l1"] for c, r in out["render"].items()},
+        "albedo_worst": out["albedo"]["worst_rel_diff"]})
+    for case, r in out["render"].items():
+        limit = MAX_ENV if rgl_render.CASES[case] is None else MAX_POINT
+        assert r["rel_l1"] <= limit, f"{case}: relative L1 {r['rel_l1']:.4f} > {limit}"
+    assert out["albedo"]["worst_rel_diff"] <= MAX_ALBEDO, out["albedo"]["worst_rel_diff"]
 
 
 @pytest.mark.parametrize("material", MATERIALS)

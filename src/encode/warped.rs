@@ -160,8 +160,9 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         basis = basis_all[..k * w].to_vec();
         coef = match &input.metric {
             Some(m) if k == m.rows => {
-                basis = metric_orthonormal(&y, m, &basis, k, w)?;
-                project_in_metric(&y, m, &basis, k, w)?
+                (basis, coef) =
+                    reachable_span(&target, m, &basis, &input.wavelengths, &norms, opts)?;
+                coef
             }
             _ => project(x, &basis, k, w),
         };
@@ -368,8 +369,13 @@ impl Target<'_> {
         let mut m = vec![0.0; d];
         let mut e = 0.0;
         for p in 0..per {
+            // Clamped at 0 as the decoder clamps (EVALUATION.md, "Warped tables", step 5): a
+            // colour that only a negative spectrum gives back is an error here too.
             for (l, sv) in s.iter_mut().enumerate() {
-                *sv = (0..k).map(|t| c[p * k + t] * basis[t * w + l]).sum();
+                *sv = (0..k)
+                    .map(|t| c[p * k + t] * basis[t * w + l])
+                    .sum::<f64>()
+                    .max(0.0);
             }
             let rebuilt: &[f64] = match self.metric {
                 Some(mt) => {
@@ -439,6 +445,73 @@ fn metric_orthonormal(
         }
     }
     Ok(out)
+}
+
+/// Smooth spectral primaries (centre nm, width σ nm) whose spans the encoder tries after the
+/// data's own: each holds a wider gamut than sRGB with non-negative spectra.
+const WIDE_GAMUT_PRIMARIES: [([f64; 3], f64); 5] = [
+    ([440.0, 520.0, 610.0], 40.0),
+    ([440.0, 520.0, 610.0], 30.0),
+    ([460.0, 530.0, 620.0], 30.0),
+    ([440.0, 520.0, 610.0], 20.0),
+    ([460.0, 530.0, 620.0], 20.0),
+];
+
+/// The span of D spectra (and the nodes' coefficients on it, [`metric_orthonormal`] and
+/// [`project_in_metric`]) for a metric of D rows. The coefficients are the measured values
+/// turned, whatever the span; the span decides only which spectra the values become, and so
+/// whether a spectrum the decoder clamps at 0 still gives its value back. An RGB file's most
+/// saturated colours lie outside sRGB (a negative channel, on 3–54% of the nodes of a purple
+/// film), and the principal spectra of their Jakob–Hanika upsampling reach them only through
+/// negative lobes. So the data's own span is kept when clamping costs it at most a twentieth of
+/// the budget on every incidence, and otherwise the first span of smooth wide-gamut primaries
+/// that does, or the one that costs least.
+fn reachable_span(
+    target: &Target,
+    m: &Metric,
+    principal: &[f64],
+    wavelengths: &[f32],
+    norms: &[f64],
+    opts: &WarpedOptions,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let (k, w) = (m.rows, wavelengths.len());
+    let gaussians = |(centres, width): &([f64; 3], f64)| -> Vec<f64> {
+        centres
+            .iter()
+            .take(k)
+            .flat_map(|c| {
+                wavelengths
+                    .iter()
+                    .map(move |&l| (-0.5 * ((l as f64 - c) / width).powi(2)).exp())
+            })
+            .collect()
+    };
+    let worst_of = |span: &[f64]| -> Result<(f64, Vec<f64>, Vec<f64>)> {
+        let basis = metric_orthonormal(target.y, m, span, k, w)?;
+        let coef = project_in_metric(target.y, m, &basis, k, w)?;
+        let worst = target
+            .errors(&coef, &basis, k, norms)
+            .into_iter()
+            .fold(0.0, f64::max);
+        Ok((worst, basis, coef))
+    };
+    let enough = opts.max_error / 20.0;
+    let mut best = worst_of(principal)?;
+    if best.0 > enough && k == 3 {
+        for primaries in &WIDE_GAMUT_PRIMARIES {
+            // A span the metric cannot invert is skipped: the data's own is kept then.
+            let Ok(tried) = worst_of(&gaussians(primaries)) else {
+                continue;
+            };
+            if tried.0 < best.0 {
+                best = tried;
+            }
+            if best.0 <= enough {
+                break;
+            }
+        }
+    }
+    Ok((best.1, best.2))
 }
 
 /// Coefficients (K = D per node) whose rebuilt spectra map exactly onto `y` under the metric:
