@@ -1,18 +1,25 @@
 //! What an opened material costs in memory, measured by a counting allocator (this test binary's
 //! global allocator): the bytes a decoder keeps after `Decoder::from_bytes`, against the file's
 //! size and against `Decoder::resident_bytes`, for every golden file. Renderers open thousands
-//! of materials; the bound is 4× the file.
+//! of materials; the bound is 4× the file. And that evaluating and sampling an opened
+//! material allocates nothing (renderers call them from their inner loops, on many threads).
 
 use sbrdf::Decoder;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicIsize, Ordering};
+use std::sync::atomic::{AtomicIsize, AtomicUsize, Ordering};
+use std::sync::Mutex;
 
 struct Counting;
 static LIVE: AtomicIsize = AtomicIsize::new(0);
+/// Allocation calls (alloc and realloc), whatever their size.
+static CALLS: AtomicUsize = AtomicUsize::new(0);
+/// The counters are the process's: the tests of this binary take turns.
+static TURN: Mutex<()> = Mutex::new(());
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        CALLS.fetch_add(1, Ordering::SeqCst);
         LIVE.fetch_add(l.size() as isize, Ordering::SeqCst);
         System.alloc(l)
     }
@@ -21,6 +28,7 @@ unsafe impl GlobalAlloc for Counting {
         System.dealloc(p, l)
     }
     unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
+        CALLS.fetch_add(1, Ordering::SeqCst);
         LIVE.fetch_add(new as isize - l.size() as isize, Ordering::SeqCst);
         System.realloc(p, l, new)
     }
@@ -29,8 +37,8 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
-#[test]
-fn an_opened_material_holds_at_most_four_times_its_file() {
+/// Every golden file and the shipped sample, sorted.
+fn materials() -> Vec<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("samples");
     let mut paths: Vec<PathBuf> = std::fs::read_dir(dir.join("golden"))
         .unwrap()
@@ -39,6 +47,82 @@ fn an_opened_material_holds_at_most_four_times_its_file() {
         .collect();
     paths.push(dir.join("ggx_slices.sbrdf"));
     paths.sort();
+    paths
+}
+
+#[test]
+fn evaluation_and_sampling_allocate_nothing() {
+    let _turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
+    let paths = materials();
+    // The SH constants are the process's, built on first use (as in the test below): one
+    // evaluation of a file with SH records first.
+    let first = Decoder::from_bytes(&std::fs::read(&paths[0]).unwrap()).unwrap();
+    first.eval([0.0, 0.3, 0.9], [0.2, 0.1, 0.9], &[550.0], &mut [0.0]);
+    drop(first);
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut uniform = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u32 << 24) as f32
+    };
+    let mut checked = 0;
+    for p in &paths {
+        let dec = Decoder::from_bytes(&std::fs::read(p).unwrap()).unwrap();
+        dec.prepare_sampling();
+        let all = dec.material().wavelengths.clone();
+        let (one, four) = ([550.0f32], [400.0f32, 500.0, 600.0, 700.0]);
+        let mut out = vec![0.0f32; all.len().max(4) * 64];
+        // Directions all over the sphere, below the horizon and grazing included.
+        let mut pairs: Vec<([f32; 3], [f32; 3])> = Vec::new();
+        for _ in 0..512 {
+            let mut d = || {
+                let (z, a) = (2.0 * uniform() - 1.0, std::f32::consts::TAU * uniform());
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                [r * a.cos(), r * a.sin(), z]
+            };
+            pairs.push((d(), d()));
+        }
+        pairs.push(([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]));
+        pairs.push(([1.0, 0.0, 0.0], [-1.0, 0.0, 1e-7]));
+        let (wis, wos): (Vec<[f32; 3]>, Vec<[f32; 3]>) = pairs.iter().cloned().unzip();
+        let before = CALLS.load(Ordering::SeqCst);
+        let mut total = 0.0f64;
+        for &(wi, wo) in &pairs {
+            for wl in [&one[..], &four[..], &all[..]] {
+                dec.eval(wi, wo, wl, &mut out);
+                total += out[0] as f64;
+            }
+            total += dec.pdf(wi, wo) as f64;
+            if let Some(s) = dec.sample(wi, [uniform(), uniform()]) {
+                total += s.pdf as f64;
+            }
+            total += dec.eval_linear_srgb(wi, wo, sbrdf::decode::color::Illuminant::D65)[1];
+        }
+        for (wi, wo) in wis.chunks(64).zip(wos.chunks(64)) {
+            for wl in [&one[..], &four[..], &all[..]] {
+                dec.eval_batch(wi, wo, wl, &mut out).unwrap();
+                dec.eval_batch(&wi[..1], wo, wl, &mut out).unwrap();
+                total += out[0] as f64;
+            }
+        }
+        let calls = CALLS.load(Ordering::SeqCst) - before;
+        assert!(total.is_finite(), "{}", p.display());
+        assert_eq!(
+            calls,
+            0,
+            "{}: {calls} allocations while evaluating",
+            p.display()
+        );
+        checked += 1;
+    }
+    assert!(checked >= 10, "{checked} materials");
+}
+
+#[test]
+fn an_opened_material_holds_at_most_four_times_its_file() {
+    let _turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
+    let paths = materials();
     // The SH constants are shared by every decoder of the process: built before counting.
     drop(Decoder::from_bytes(&std::fs::read(&paths[0]).unwrap()).unwrap());
     let mut checked = 0;
