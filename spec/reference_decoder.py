@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
-"""Independent reference reader and decoder of the .sbrdf format, version 1.4.
+"""Independent reference reader and decoder of the .sbrdf format, version 1.5.
 
 Version 1.1 adds to version 1.0 the wavelength range (HEAD flag bit 1, §3.1), the critical `FACT`
 chunk (the factor model, §3.7, EVALUATION.md "Factor model") and the ancillary `xval` chunk
 (held-out errors, §3.8); version 1.2 adds lobe kind 5, the anisotropic microfacet lobe
 (EVALUATION.md "Lobes", its blending in "Lobes by position"); version 1.3 the compact records
 (`RECS`, §3.9); version 1.4 the warped tables (`WARP`, §3.10, EVALUATION.md "Warped tables"),
+version 1.5 their wavelet transform (`WARP` layout 17),
 whose tables, warps and σ nodes are computed once when the file is opened. Files without them
 (every 1.0 file) are read and evaluated exactly as before.
 
@@ -143,6 +144,48 @@ def lerp_nodes(values, x):
     j = min(int(pos), n - 2)
     f = pos - j
     return (1.0 - f) * values[j] + f * values[j + 1]
+
+
+def wavelet_levels(n):
+    """"Warped tables": the lengths m the levels of the 1-D wavelet work on: n, then ⌈m/2⌉,
+    at most 3 levels, each while m ≥ 2."""
+    out, m = [], n
+    while len(out) < 3 and m >= 2:
+        out.append(m)
+        m = (m + 1) // 2
+    return out
+
+
+def wavelet_inverse(x):
+    """"Warped tables": the inverse 1-D CDF 5/3 wavelet transform of x (a list), levels undone
+    in reverse order, each: low band to the even places and high band to the odd ones, the
+    update undone, then the prediction, with whole-sample symmetric extension."""
+    x = list(x)
+    for m in reversed(wavelet_levels(len(x))):
+        half = (m + 1) // 2
+        y = [0.0] * m
+        y[0::2] = x[:half]
+        y[1::2] = x[half:m]
+
+        def at(j):
+            return y[-j] if j < 0 else (y[2 * (m - 1) - j] if j >= m else y[j])
+        for j in range(0, m, 2):
+            y[j] -= (at(j - 1) + at(j + 1)) / 4
+        for j in range(1, m, 2):
+            y[j] += (at(j - 1) + at(j + 1)) / 2
+        x[:m] = y
+    return x
+
+
+def wavelet_bands(n):
+    """"Warped tables": β(a) for a = 0..n−1: L − l in the high band of level l (L levels),
+    0 in the last low band."""
+    levels = wavelet_levels(n)
+    band = [0] * n
+    for l, m in enumerate(levels):
+        for a in range((m + 1) // 2, m):
+            band[a] = len(levels) - l
+    return band
 
 
 def table_bilinear(table, size, sx, sy):
@@ -813,9 +856,12 @@ class SbrdfFile:
             raise malformed("%s: shorter than its 12-byte fixed part (§3.10)" % where)
         layout, ndf_prec, grid, warp_grid, ndf_count = r.take("BBHHH")
         (sigma_scale,) = r.take("f")
-        if layout != 1:
+        if layout not in (1, 17):
             # §3.10 and §6: an unknown WARP layout makes the file unsupported
             raise unsupported("%s: unknown layout %d (§3.10)" % (where, layout))
+        if layout == 17 and self.minor < 5:
+            raise malformed("%s: layout 17 (the wavelet, 1.5) in a 1.%d file (§3.10)"
+                            % (where, self.minor))
         if ndf_prec not in (1, 2):
             # §3.10 and §6: an unknown NDF precision makes the file unsupported
             raise unsupported("%s: unknown NDF precision %d (§3.10)" % (where, ndf_prec))
@@ -846,7 +892,7 @@ class SbrdfFile:
         if not all(math.isfinite(v) and v >= 0 for v in steps):
             raise malformed("%s: a step not finite or < 0 (§3.10)" % where)
         ints = self.inflate_warp(body[fixed:], count, where)
-        return {"R": grid, "G": warp_grid, "M": ndf_count, "c": sigma_scale,
+        return {"R": grid, "G": warp_grid, "M": ndf_count, "c": sigma_scale, "layout": layout,
                 "ndf": list(ndf), "steps": list(steps), "ints": ints}
 
     @staticmethod
@@ -911,12 +957,25 @@ class SbrdfFile:
             return lerp_nodes(ndf, x)
 
         self.warp_ndf = ndf_at
-        # -- tables: T[r][c] = Σ_a Σ_b α(a) α(b) C(a, b) cos(π(2r+1)a/2R) cos(π(2c+1)b/2R)
-        cosine = [[(math.sqrt(1.0 / R) if a == 0 else math.sqrt(2.0 / R))
-                   * math.cos(math.pi * (2 * r + 1) * a / (2 * R)) for r in range(R)]
-                  for a in range(R)]  # cosine[a][r] = α(a) cos(π(2r + 1)a / 2R)
-        order = sorted(((a, b) for a in range(R) for b in range(R)),
-                       key=lambda ab: (ab[0] + ab[1], ab[0]))  # diagonal order (§3.10)
+        # -- tables: T[r][c] = Σ_a Σ_b C(a, b) w_a(r) w_b(c), w the synthesis vectors
+        if w["layout"] == 1:
+            # DCT-II: w_a(r) = α(a) cos(π(2r + 1)a / 2R)
+            cosine = [[(math.sqrt(1.0 / R) if a == 0 else math.sqrt(2.0 / R))
+                       * math.cos(math.pi * (2 * r + 1) * a / (2 * R)) for r in range(R)]
+                      for a in range(R)]
+            order = sorted(((a, b) for a in range(R) for b in range(R)),
+                           key=lambda ab: (ab[0] + ab[1], ab[0]))  # diagonal order (§3.10)
+        else:
+            # wavelet: w_a = v_a/|v_a|, v_a the inverse transform of e_a; band order (§3.10)
+            cosine = []
+            for a in range(R):
+                v = wavelet_inverse([1.0 if j == a else 0.0 for j in range(R)])
+                norm = math.sqrt(sum(x * x for x in v))
+                cosine.append([x / norm for x in v])
+            band = wavelet_bands(R)
+            order = sorted(((a, b) for a in range(R) for b in range(R)),
+                           key=lambda ab: (band[ab[0]] + band[ab[1]], band[ab[0]],
+                                           band[ab[1]], ab[0], ab[1]))
         ints, steps = w["ints"], w["steps"]
         tables = []
         for i in range(self.n):

@@ -10,6 +10,7 @@ use sbrdf::encode::samples::{ReadOptions, RgbToSpectrum};
 use sbrdf::encode::warped::{encode_warped, WarpedInput, WarpedOptions, DEFAULT_MAX_ERROR};
 use sbrdf::io::rgl::{read_warped, RglBsdf};
 use sbrdf::io::synth::SpectrumTable;
+use sbrdf::model::warped::TableTransform;
 use sbrdf::{write_material, Decoder};
 use std::path::{Path, PathBuf};
 
@@ -109,6 +110,7 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
             &WarpedOptions {
                 max_error: DEFAULT_MAX_ERROR,
                 terms: None,
+                transform: None,
             },
         )
         .unwrap();
@@ -135,6 +137,7 @@ fn budgets_are_met(name: &str) {
             &WarpedOptions {
                 max_error: budget,
                 terms: None,
+                transform: None,
             },
         )
         .unwrap();
@@ -185,6 +188,7 @@ fn the_decoder_follows_the_measurement_between_its_nodes() {
             &WarpedOptions {
                 max_error: DEFAULT_MAX_ERROR,
                 terms: None,
+                transform: None,
             },
         )
         .unwrap();
@@ -217,6 +221,7 @@ fn an_incidence_left_out_is_predicted_from_its_neighbours() {
                 &WarpedOptions {
                     max_error: DEFAULT_MAX_ERROR,
                     terms: None,
+                    transform: None,
                 },
             )
             .unwrap();
@@ -303,6 +308,78 @@ fn a_spectral_source_keeps_its_spectra_within_the_budget_and_size() {
     }
 }
 
+#[test]
+fn each_transform_meets_the_budget_and_the_default_keeps_the_smaller_file() {
+    for name in MATERIALS {
+        let inp = input(name);
+        let mut sizes = Vec::new();
+        for transform in [
+            None,
+            Some(TableTransform::Dct),
+            Some(TableTransform::Wavelet53),
+        ] {
+            let enc = encode_warped(
+                &inp,
+                &WarpedOptions {
+                    max_error: DEFAULT_MAX_ERROR,
+                    terms: None,
+                    transform,
+                },
+            )
+            .unwrap();
+            let bytes = write_material(&enc.material).unwrap();
+            let w = enc.material.warped.as_ref().unwrap();
+            if let Some(t) = transform {
+                assert_eq!(w.transform, t);
+            }
+            // 1.4 for the DCT, 1.5 for the wavelet: the lowest version whose features it uses.
+            let minor = u16::from_le_bytes([bytes[20], bytes[21]]);
+            assert_eq!(
+                minor,
+                if w.transform == TableTransform::Dct {
+                    4
+                } else {
+                    5
+                },
+                "{name}"
+            );
+            assert!(enc.met && enc.errors.iter().all(|&e| e <= DEFAULT_MAX_ERROR));
+            // What is written decodes to the same tables (read back through the format).
+            let back = sbrdf::read_material(&bytes, &sbrdf::Limits::default()).unwrap();
+            assert_eq!(back.warped.as_deref(), Some(w.as_ref()), "{name}");
+            sizes.push(bytes.len());
+        }
+        eprintln!(
+            "{name}: default {} bytes, DCT {}, wavelet {}",
+            sizes[0], sizes[1], sizes[2]
+        );
+        assert_eq!(sizes[0], sizes[1].min(sizes[2]), "{name}");
+    }
+}
+
+#[test]
+fn the_wavelet_is_refused_in_a_1_4_file_and_an_unknown_transform_is_unsupported() {
+    let good = std::fs::read(samples_dir().join("golden/rgl_satin_warp_v15.sbrdf")).unwrap();
+    assert!(Decoder::from_bytes(&good).is_ok());
+    // HEAD's version_minor 5 → 4 (HEAD's data starts at 18; its CRC rewritten).
+    let mut old = good.clone();
+    old[20] = 4;
+    let head_len = u32::from_le_bytes(old[10..14].try_into().unwrap()) as usize;
+    fix_crc(&mut old, 18, head_len);
+    let e = Decoder::from_bytes(&old).unwrap_err().to_string();
+    assert!(e.contains("1.5 feature") && e.contains("malformed"), "{e}");
+    // Layout 0x21: transform 2, which no version defines.
+    let (at, len) = warp_chunk(&good);
+    let mut unknown = good.clone();
+    unknown[at] = 0x21;
+    fix_crc(&mut unknown, at, len);
+    let e = Decoder::from_bytes(&unknown).unwrap_err().to_string();
+    assert!(
+        e.contains("unknown warped-table transform 2") && e.contains("unsupported"),
+        "{e}"
+    );
+}
+
 /// The WARP chunk of a file: (offset of its data, its length).
 fn warp_chunk(bytes: &[u8]) -> (usize, usize) {
     let mut p = 10;
@@ -324,8 +401,14 @@ fn fix_crc(bytes: &mut [u8], at: usize, len: usize) {
 
 #[test]
 fn damage_behind_a_valid_crc_is_refused_or_decoded_never_a_panic() {
-    let path = samples_dir().join("golden/rgl_paper_warp_v14.sbrdf");
-    let good = std::fs::read(path).unwrap();
+    for golden in ["rgl_paper_warp_v14.sbrdf", "rgl_satin_warp_v15.sbrdf"] {
+        damage_behind_a_valid_crc(golden);
+    }
+}
+
+/// Both golden files hold 8 incidences × 3 terms and 128 f16 NDF nodes.
+fn damage_behind_a_valid_crc(golden: &str) {
+    let good = std::fs::read(samples_dir().join("golden").join(golden)).unwrap();
     let (at, len) = warp_chunk(&good);
     let mut refused = 0;
     // Every header and NDF byte, and a spread of payload bytes, each flipped.
@@ -402,6 +485,7 @@ fn a_file_written_and_read_back_is_the_same_material_and_bytes() {
         &WarpedOptions {
             max_error: 0.02,
             terms: None,
+            transform: None,
         },
     )
     .unwrap();

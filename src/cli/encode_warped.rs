@@ -54,6 +54,7 @@ pub fn try_encode(a: &EncodeArgs, settings: &EncodeSettings) -> Result<bool> {
     let opts = WarpedOptions {
         max_error: budget,
         terms: o.terms,
+        transform: None,
     };
     let started = std::time::Instant::now();
     let mut enc = encode_warped(&read.input, &opts)?;

@@ -144,8 +144,8 @@ pub fn cmd_info(a: InfoArgs) -> Result<()> {
         let nonzero = w.levels.iter().filter(|&&z| z != 0).count();
         println!(
             "warped tables:  {} incidences × {} terms of {}×{} (Dupuy & Jakob 2018 warp on a \
-             {}×{} VNDF grid from {} NDF nodes, {}), {nonzero} of {} DCT coefficients non-zero, \
-             steps {}–{}",
+             {}×{} VNDF grid from {} NDF nodes, {}), {nonzero} of {} {} coefficients \
+             non-zero, steps {}–{}",
             m.records.len(),
             m.spectral.terms,
             w.grid,
@@ -155,6 +155,10 @@ pub fn cmd_info(a: InfoArgs) -> Result<()> {
             w.ndf.len(),
             w.ndf_precision.name(),
             w.levels.len(),
+            match w.transform {
+                sbrdf::model::warped::TableTransform::Dct => "DCT-II",
+                sbrdf::model::warped::TableTransform::Wavelet53 => "CDF 5/3 wavelet",
+            },
             steps.0,
             steps.1
         );

@@ -557,6 +557,7 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                     &mut f,
                     h.incidences.len(),
                     h.spectral.terms,
+                    h.minor,
                     limits,
                 )?));
             }

@@ -3,13 +3,13 @@
 
 use super::read::Fields;
 use crate::error::Result;
-use crate::model::warped::{diagonal_order, WarpedModel, MAX_GRID, MAX_NDF, MAX_WARP_GRID};
+use crate::model::warped::{TableTransform, WarpedModel, MAX_GRID, MAX_NDF, MAX_WARP_GRID};
 use crate::model::warped::{MAX_LEVEL, MAX_WARP_VALUES, MIN_WARP_GRID};
 use crate::model::Precision;
 use miniz_oxide::inflate::core::{decompress, inflate_flags, DecompressorOxide};
 use miniz_oxide::inflate::TINFLStatus;
 
-/// The only layout defined: isotropic tables.
+/// The only arrangement defined (the low four bits of `layout`): isotropic tables.
 pub(crate) const LAYOUT_ISOTROPIC: u8 = 1;
 
 /// DEFLATE never expands more than 1032:1; with the zlib header and trailer a payload of P bytes
@@ -23,11 +23,27 @@ pub(super) fn read_warped(
     f: &mut Fields,
     n: usize,
     k: usize,
+    minor: u16,
     limits: &super::Limits,
 ) -> Result<WarpedModel> {
     let layout = f.u8("layout")?;
-    if layout != LAYOUT_ISOTROPIC {
-        return Err(f.unsupported(format!("unknown warped-table layout {layout}")));
+    if layout & 0x0F != LAYOUT_ISOTROPIC {
+        return Err(f.unsupported(format!(
+            "unknown warped-table arrangement {} (layout {layout:#04x})",
+            layout & 0x0F
+        )));
+    }
+    let transform = TableTransform::from_code(layout >> 4).ok_or_else(|| {
+        f.unsupported(format!(
+            "unknown warped-table transform {} (layout {layout:#04x})",
+            layout >> 4
+        ))
+    })?;
+    if transform == TableTransform::Wavelet53 && minor < super::VERSION_MINOR_WAVELET {
+        return Err(f.malformed(format!(
+            "the wavelet transform (layout {layout:#04x}) is a 1.{} feature, in a 1.{minor} file",
+            super::VERSION_MINOR_WAVELET
+        )));
     }
     let code = f.u8("ndf_precision")?;
     let ndf_precision = Precision::from_code(code)
@@ -87,13 +103,15 @@ pub(super) fn read_warped(
         at: at.clone(),
         message,
     })?;
-    let levels =
-        varints(&bytes, values as usize, r).map_err(|message| crate::error::Error::Format {
+    let levels = varints(&bytes, values as usize, r, transform).map_err(|message| {
+        crate::error::Error::Format {
             at: at.clone(),
             message,
-        })?;
+        }
+    })?;
     f.finish()?;
     Ok(WarpedModel {
+        transform,
         grid: r,
         warp_grid: g,
         sigma_scale,
@@ -148,10 +166,15 @@ fn inflate(payload: &[u8], bound: usize) -> std::result::Result<Vec<u8>, String>
     Ok(out)
 }
 
-/// Exactly `count` zigzag LEB128 integers, tables of `r`² in diagonal order, returned in
-/// row-major frequency order.
-fn varints(bytes: &[u8], count: usize, r: usize) -> std::result::Result<Vec<i32>, String> {
-    let order = diagonal_order(r);
+/// Exactly `count` zigzag LEB128 integers, tables of `r`² in the transform's order, returned
+/// in row-major coefficient order.
+fn varints(
+    bytes: &[u8],
+    count: usize,
+    r: usize,
+    transform: TableTransform,
+) -> std::result::Result<Vec<i32>, String> {
+    let order = transform.order(r);
     let rr = r * r;
     let mut out = vec![0i32; count];
     let mut pos = 0usize;
@@ -197,7 +220,7 @@ fn varints(bytes: &[u8], count: usize, r: usize) -> std::result::Result<Vec<i32>
 /// The data of a `WARP` chunk.
 pub(super) fn warp_chunk(w: &WarpedModel) -> Vec<u8> {
     let mut d = Vec::new();
-    d.push(LAYOUT_ISOTROPIC);
+    d.push(LAYOUT_ISOTROPIC | w.transform.code() << 4);
     d.push(w.ndf_precision.code());
     d.extend_from_slice(&(w.grid as u16).to_le_bytes());
     d.extend_from_slice(&(w.warp_grid as u16).to_le_bytes());
@@ -218,10 +241,10 @@ pub(super) fn warp_chunk(w: &WarpedModel) -> Vec<u8> {
     d
 }
 
-/// The inflated payload: every table's integers in diagonal order, zigzag LEB128.
+/// The inflated payload: every table's integers in the transform's order, zigzag LEB128.
 pub(crate) fn payload_bytes(w: &WarpedModel) -> Vec<u8> {
     let rr = w.grid * w.grid;
-    let order = diagonal_order(w.grid);
+    let order = w.transform.order(w.grid);
     let mut out = Vec::with_capacity(w.levels.len() * 2);
     for t in 0..w.tables() {
         for &o in &order {

@@ -5,6 +5,7 @@ use crate::error::{Error, Result};
 use crate::model::factor::FactorModel;
 use crate::model::material::*;
 use crate::model::sh::sh_count;
+use crate::model::warped::TableTransform;
 use crate::model::Precision;
 use half::f16;
 
@@ -65,9 +66,14 @@ fn push_chunk(out: &mut Vec<u8>, kind: [u8; 4], data: &[u8]) {
 /// written as 1.0, byte for byte. Reading the file back gives this minor version.
 pub fn written_version(m: &Material) -> (u16, bool) {
     let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
-    if m.warped.is_some() {
-        // Warped tables are a 1.4 feature whatever the material asks, as FACT is 1.1's.
-        return (VERSION_MINOR_WARP, is_wavelength_range(&m.wavelengths));
+    if let Some(w) = &m.warped {
+        // Warped tables are a 1.4 feature whatever the material asks, as FACT is 1.1's; their
+        // wavelet transform a 1.5 one.
+        let minor = match w.transform {
+            TableTransform::Dct => VERSION_MINOR_WARP,
+            TableTransform::Wavelet53 => VERSION_MINOR_WAVELET,
+        };
+        return (minor, is_wavelength_range(&m.wavelengths));
     }
     if m.version_minor >= VERSION_MINOR_COMPACT {
         return (VERSION_MINOR_COMPACT, range);

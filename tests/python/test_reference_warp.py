@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Self-test of the WARP chunk (FORMAT.md §3.10, EVALUATION.md "Warped tables", version 1.4) in
-spec/reference_decoder.py, without the Rust binary.
+"""Self-test of the WARP chunk (FORMAT.md §3.10, EVALUATION.md "Warped tables", versions 1.4 and
+1.5) in spec/reference_decoder.py, without the Rust binary.
 
 Tiny WARP files are built by hand here, byte by byte from the specification, and decoded by the
 reference decoder; the checks are properties derived by hand from the text. The tables are
@@ -9,7 +9,8 @@ answered with the roles exchanged, the tables' incidence, bracket and σ taken a
 and the division by the cosine of the query's ωi. So with only the DC coefficient non-zero a
 table is constant q·n/R, and the value at a pair is q·n/R·B_0(λ)·D(u_x)/(4σ(θo))/cos θi, the
 tables blended in θo (σ recomputed here by its own loops); single non-DC coefficients give the
-cosines of the inverse DCT-II in diagonal order; the inverse warp equals the conditional and
+cosines of the inverse DCT-II in diagonal order, and in a 1.5 file with layout 17 the wavelet's
+synthesis vectors worked by hand from the lifting steps, in band order; the inverse warp equals the conditional and
 marginal integrals of the bilinear density, integrated numerically here; and every malformed
 case the text lists is refused. A file with WARP holds no records chunk (§3.10, §2.5 rules 3
 and 7): the files built here have none, and a RECS or RECD anywhere in one is refused.
@@ -79,11 +80,19 @@ def diagonal_order(r):
     return sorted(((a, b) for a in range(r) for b in range(r)), key=lambda p: (p[0] + p[1], p[0]))
 
 
-def payload_of(tables, r):
-    """The inflated payload bytes: tables in order (i·K + k), each a dict {(a, b): n}."""
+def band_order_4():
+    """§3.10's band order for R = 4, by hand: the bands of a = 0..3 are (0, 1, 2, 2) (two
+    levels: 4 → 2 + 2, then 2 → 1 + 1); pairs by band sum, then band of a, of b, then a, b."""
+    return [(0, 0), (0, 1), (1, 0), (0, 2), (0, 3), (1, 1), (2, 0), (3, 0), (1, 2), (1, 3),
+            (2, 1), (3, 1), (2, 2), (2, 3), (3, 2), (3, 3)]
+
+
+def payload_of(tables, r, order=None):
+    """The inflated payload bytes: tables in order (i·K + k), each a dict {(a, b): n}, each in
+    `order` (diagonal order by default)."""
     raw = b""
     for tab in tables:
-        for ab in diagonal_order(r):
+        for ab in order or diagonal_order(r):
             raw += varint(tab.get(ab, 0))
     return raw
 
@@ -671,10 +680,47 @@ def timing():
               "(3 λ)" % (n, k, r, g, m, len(data), opened, per * 1e6))
 
 
+def test_wavelet():
+    """Layout 17 (1.5): T[r][c] = q·n·w_a(r)·w_b(c) with w_a = v_a/|v_a|, v_a the inverse 5/3
+    transform of e_a. For R = 4, by hand from the lifting steps: v_0 = (1, 1, 1, 1), |v_0| = 2;
+    v_1 = (−½, 0, ½, ½), |v_1|² = ¾; v_2 = (−½, ⅝, −¼, −¼), |v_2| = ⅞."""
+    v = {0: [1.0, 1.0, 1.0, 1.0], 1: [-0.5, 0.0, 0.5, 0.5], 2: [-0.5, 0.625, -0.25, -0.25]}
+    w = {a: [x / math.sqrt(sum(y * y for y in vec)) for x in vec] for a, vec in v.items()}
+    hd5 = head(THETAS, minor=5)
+
+    def wavelet_file(tables, layout=17, hd=None):
+        pl = zlib.compress(payload_of(tables, R, band_order_4()), 9)
+        return build(head_chunk=hd or hd5,
+                     warp_chunk=warp(R, G, M, C_SCALE, NDF, STEPS, pl, layout=layout))
+
+    check("the wavelet's bands for R = 4 are (0, 1, 2, 2)", rd.wavelet_bands(4) == [0, 1, 2, 2])
+    # Only (0, 0): a constant table q·n/4, the base file's values (the same tables as its DCT).
+    f = decode(wavelet_file([{(0, 0): n} for n in DC]))
+    worst = 0.0
+    for ti, pi_, to, po in ((20.0, 0.0, 30.0, 170.0), (60.0, 45.0, 25.0, 300.0),
+                            (5.0, 10.0, 40.0, 200.0)):
+        got = f.eval(ti, pi_, to, po, [550.0])[0]
+        want = expected_value(ti, pi_, to, po, 550.0)
+        worst = max(worst, abs(got - want) / want)
+    check("layout 17, (0, 0) only: the base file's values", worst < 1e-12, "worst %g" % worst)
+    for (a, b) in ((1, 0), (2, 1), (0, 2), (1, 1)):
+        f = decode(wavelet_file([{(a, b): 5}, {}]))
+        tab = f.warp_tables[0][0]
+        want = [0.5 * 5 * w[a][r] * w[b][c] for r in range(R) for c in range(R)]
+        check("layout 17, coefficient (%d, %d) alone: q·n·w_a(r)·w_b(c), band order" % (a, b),
+              all(close(x, y, 1e-12, 1e-15) for x, y in zip(tab, want)),
+              "%r vs %r" % (list(tab), want))
+    refused("layout 17 in a 1.4 file", wavelet_file([{(0, 0): 8}, {(0, 0): 12}],
+                                                     hd=head(THETAS, minor=4)))
+    refused("layout 33 (transform 2, unknown; as unsupported)",
+            wavelet_file([{(0, 0): 8}, {(0, 0): 12}], layout=33), kind="unsupported")
+
+
 def main():
     test_values()
     test_command_line()
     test_dct_and_order()
+    test_wavelet()
     test_warp_inverse()
     test_refusals()
     if "--timing" in sys.argv[1:]:
