@@ -6,30 +6,47 @@
 
 use sbrdf::Decoder;
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicIsize, AtomicUsize, Ordering};
-use std::sync::Mutex;
 
 struct Counting;
-static LIVE: AtomicIsize = AtomicIsize::new(0);
-/// Allocation calls (alloc and realloc), whatever their size.
-static CALLS: AtomicUsize = AtomicUsize::new(0);
-/// The counters are the process's: the tests of this binary take turns.
-static TURN: Mutex<()> = Mutex::new(());
+
+thread_local! {
+    /// Allocation calls (alloc and realloc) made by this thread, whatever their size, and the
+    /// bytes it holds (allocated minus freed): per thread, because the test harness's other
+    /// threads allocate while a test runs (the decoder never hands work to other threads).
+    static CALLS: Cell<usize> = const { Cell::new(0) };
+    static LIVE: Cell<isize> = const { Cell::new(0) };
+}
+
+/// This thread's allocation calls so far.
+fn calls() -> usize {
+    CALLS.with(Cell::get)
+}
+
+/// The bytes this thread holds.
+fn live() -> isize {
+    LIVE.with(Cell::get)
+}
+
+/// Counts a call that changes this thread's bytes by `bytes` (`try_with`: a thread being torn
+/// down has no counters left, and its calls are not a test's).
+fn count(call: bool, bytes: isize) {
+    let _ = CALLS.try_with(|c| c.set(c.get() + call as usize));
+    let _ = LIVE.try_with(|c| c.set(c.get() + bytes));
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        CALLS.fetch_add(1, Ordering::SeqCst);
-        LIVE.fetch_add(l.size() as isize, Ordering::SeqCst);
+        count(true, l.size() as isize);
         System.alloc(l)
     }
     unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        LIVE.fetch_sub(l.size() as isize, Ordering::SeqCst);
+        count(false, -(l.size() as isize));
         System.dealloc(p, l)
     }
     unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
-        CALLS.fetch_add(1, Ordering::SeqCst);
-        LIVE.fetch_add(new as isize - l.size() as isize, Ordering::SeqCst);
+        count(true, new as isize - l.size() as isize);
         System.realloc(p, l, new)
     }
 }
@@ -52,7 +69,6 @@ fn materials() -> Vec<PathBuf> {
 
 #[test]
 fn evaluation_and_sampling_allocate_nothing() {
-    let _turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
     let paths = materials();
     // The SH constants are the process's, built on first use (as in the test below): one
     // evaluation of a file with SH records first.
@@ -86,7 +102,7 @@ fn evaluation_and_sampling_allocate_nothing() {
         pairs.push(([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]));
         pairs.push(([1.0, 0.0, 0.0], [-1.0, 0.0, 1e-7]));
         let (wis, wos): (Vec<[f32; 3]>, Vec<[f32; 3]>) = pairs.iter().cloned().unzip();
-        let before = CALLS.load(Ordering::SeqCst);
+        let before = calls();
         let mut total = 0.0f64;
         for &(wi, wo) in &pairs {
             for wl in [&one[..], &four[..], &all[..]] {
@@ -106,7 +122,7 @@ fn evaluation_and_sampling_allocate_nothing() {
                 total += out[0] as f64;
             }
         }
-        let calls = CALLS.load(Ordering::SeqCst) - before;
+        let calls = calls() - before;
         assert!(total.is_finite(), "{}", p.display());
         assert_eq!(
             calls,
@@ -121,7 +137,6 @@ fn evaluation_and_sampling_allocate_nothing() {
 
 #[test]
 fn an_opened_material_holds_at_most_four_times_its_file() {
-    let _turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
     let paths = materials();
     // The SH constants are shared by every decoder of the process: built before counting.
     drop(Decoder::from_bytes(&std::fs::read(&paths[0]).unwrap()).unwrap());
@@ -144,9 +159,9 @@ fn an_opened_material_holds_at_most_four_times_its_file() {
                 + 4096
         });
         drop(material);
-        let before = LIVE.load(Ordering::SeqCst);
+        let before = live();
         let dec = Box::new(Decoder::from_bytes(&bytes).unwrap());
-        let held = (LIVE.load(Ordering::SeqCst) - before) as usize;
+        let held = (live() - before) as usize;
         let reported = dec.resident_bytes();
         eprintln!(
             "{}: file {} bytes, decoder holds {held} bytes ({:.2}×), resident_bytes {reported}",

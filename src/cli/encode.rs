@@ -242,7 +242,14 @@ impl EncodeOptionArgs {
 
 pub fn cmd_encode(a: EncodeArgs) -> Result<()> {
     let settings = a.options.settings()?;
-    if super::encode_warped::try_encode(&a, &settings)? {
+    let warped = super::encode_warped::WarpedRequest {
+        inputs: &a.inputs,
+        output: &a.output,
+        asked: matches!(a.options.model, ModelArg::Warped),
+        auto: matches!(a.options.model, ModelArg::Auto),
+        terms: a.options.terms,
+    };
+    if super::encode_warped::try_encode(&warped, &settings)? {
         return Ok(());
     }
     let (set, report) = sbrdf::io::read_inputs_with(&a.inputs, &settings.read)?;

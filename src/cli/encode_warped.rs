@@ -1,21 +1,32 @@
-//! `sbrdf encode` of one RGL file into warped tables (format 1.4), the default for such a file:
+//! `sbrdf encode` of one RGL file into warped tables (format 1.4/1.5), the default for such a file:
 //! chosen here, before the sample-based encoder, because it reads the measurement's own grid
 //! rather than samples at directions.
 
-use super::encode::{EncodeArgs, ModelArg};
 use sbrdf::encode::encoder::MetaLevel;
 use sbrdf::encode::settings::EncodeSettings;
 use sbrdf::encode::warped::{encode_warped, WarpedOptions, DEFAULT_MAX_ERROR};
 use sbrdf::io::output::write_bytes_atomic;
 use sbrdf::{Error, Result};
 
-/// Encodes `a` as warped tables when it asks for them (`--model warped`) or leaves the choice
-/// (`--model auto`) and names exactly one isotropic RGL file without options warped tables do
-/// not take (--wavelengths, --incident-max, records-only options). Returns whether it did.
-pub fn try_encode(a: &EncodeArgs, settings: &EncodeSettings) -> Result<bool> {
-    let o = &a.options;
-    let asked = matches!(o.model, ModelArg::Warped);
-    if !asked && !matches!(o.model, ModelArg::Auto) {
+/// What `sbrdf encode` asks of warped tables.
+pub struct WarpedRequest<'a> {
+    pub inputs: &'a [std::path::PathBuf],
+    pub output: &'a std::path::Path,
+    /// `--model warped`: warped tables or an error.
+    pub asked: bool,
+    /// `--model auto`: warped tables where the input suits them.
+    pub auto: bool,
+    /// `--terms`.
+    pub terms: Option<usize>,
+}
+
+/// Encodes the request as warped tables when it asks for them (`--model warped`) or leaves the
+/// choice (`--model auto`) and names exactly one isotropic RGL file without options warped
+/// tables do not take (--wavelengths, --incident-max, records-only options). Returns whether it
+/// did.
+pub fn try_encode(a: &WarpedRequest, settings: &EncodeSettings) -> Result<bool> {
+    let asked = a.asked;
+    if !asked && !a.auto {
         return Ok(false);
     }
     let single_rgl = a.inputs.len() == 1 && a.inputs[0].is_file() && {
@@ -53,7 +64,7 @@ pub fn try_encode(a: &EncodeArgs, settings: &EncodeSettings) -> Result<bool> {
     let budget = settings.max_error.unwrap_or(DEFAULT_MAX_ERROR);
     let opts = WarpedOptions {
         max_error: budget,
-        terms: o.terms,
+        terms: a.terms,
         transform: None,
     };
     let started = std::time::Instant::now();
@@ -102,7 +113,7 @@ pub fn try_encode(a: &EncodeArgs, settings: &EncodeSettings) -> Result<bool> {
         enc.material.metadata = Some(serde_json::Value::Object(m).to_string());
     }
     let out = sbrdf::write_material(&enc.material)?;
-    write_bytes_atomic(&a.output, &out)?;
+    write_bytes_atomic(a.output, &out)?;
     let errs: Vec<String> = enc
         .errors
         .iter()

@@ -254,7 +254,7 @@ impl Decoder {
     /// reports how far).
     pub fn sample(&self, wi: [f32; 3], u: [f32; 2]) -> Option<Sample> {
         if let Some(w) = &self.evaluator.warped {
-            return sampling::sample_warped(w, wi, u);
+            return super::warped::sample_warped(w, wi, u);
         }
         sampling::sample(&self.evaluator, self.sampling_weights(), wi, u)
     }
@@ -264,7 +264,7 @@ impl Decoder {
     /// cos θo > 0. Never allocates.
     pub fn pdf(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
         if let Some(w) = &self.evaluator.warped {
-            return sampling::pdf_warped(w, wi, wo);
+            return super::warped::pdf_warped(w, wi, wo);
         }
         sampling::pdf(&self.evaluator, self.sampling_weights(), wi, wo)
     }

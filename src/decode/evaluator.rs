@@ -141,7 +141,7 @@ impl Evaluator {
         let res = Resident::new(material);
         let warped = material.warped.as_ref().and_then(|w| {
             let thetas: Vec<f32> = material.records.iter().map(|r| r.theta_i).collect();
-            let means = super::sampling::basis_means(&res);
+            let means = res.basis_means();
             WarpedEval::new(w, &thetas, material.spectral.terms, &means).map(Box::new)
         });
         let n = res.recs.len();

@@ -192,8 +192,6 @@ impl Lattice {
         }
     }
 
-    /// The records to blend for a query incidence (θ, φ in degrees) and the incidence they are
-    /// evaluated at: θ clamped to the stored range, or a scattered file's nearest record's own.
     /// Heap bytes held.
     pub(crate) fn heap_bytes(&self) -> usize {
         match self {
@@ -203,6 +201,8 @@ impl Lattice {
         }
     }
 
+    /// The records to blend for a query incidence (θ, φ in degrees) and the incidence they are
+    /// evaluated at: θ clamped to the stored range, or a scattered file's nearest record's own.
     #[inline(always)]
     pub(crate) fn blend(&self, recs: &[Rec], theta: f64, phi: f64) -> (Blend, f64, f64) {
         match self {

@@ -79,6 +79,22 @@ pub(crate) struct Resident {
 }
 
 impl Resident {
+    /// The mean of each basis function over the file's wavelengths: Σ_k c_k·mean_k is the
+    /// spectrum-averaged value of a coefficient vector c (what both samplers draw from).
+    pub(crate) fn basis_means(&self) -> Vec<f64> {
+        let k = self.spectrum.terms();
+        let mut sum = vec![0.0; k];
+        let mut b = vec![0.0; k];
+        for &l in &self.wavelengths {
+            self.spectrum.basis(l as f64, &mut b);
+            for (s, v) in sum.iter_mut().zip(&b) {
+                *s += v;
+            }
+        }
+        let n = self.wavelengths.len().max(1) as f64;
+        sum.iter().map(|s| s / n).collect()
+    }
+
     /// The resident form of a validated material.
     pub fn new(m: &Material) -> Self {
         let n_vals: usize = m

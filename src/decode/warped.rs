@@ -3,14 +3,15 @@
 //! from the stored NDF, then per query the inverse warp of the half vector, blended between the
 //! two stored incidences around θi as Mitsuba's `measured` plugin blends its slices.
 
-use super::lattice::QueryFrame;
+use super::draw::{uniforms, Sample, MIN_COSINE_WEIGHT};
+use super::lattice::{upper, QueryFrame};
 use super::warp2d::{bilerp, total, Slices, Warp};
 use crate::model::warped::{half_vector, jacobian, lerp_nodes, ndf_at, WarpedModel};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// The share of cosine-weighted hemisphere sampling in the proposal (as for records:
-/// [`super::sampling::MIN_COSINE_WEIGHT`]): the density stays positive wherever cos θo > 0.
-const COSINE_SHARE: f64 = super::sampling::MIN_COSINE_WEIGHT;
+/// [`MIN_COSINE_WEIGHT`]): the density stays positive wherever cos θo > 0.
+const COSINE_SHARE: f64 = MIN_COSINE_WEIGHT;
 
 /// A warped-table material ready for queries.
 #[derive(Debug, Clone)]
@@ -313,4 +314,24 @@ impl WarpedEval {
             0.0
         }
     }
+}
+
+/// [`super::sampling::sample`] for warped tables (`spec/EVALUATION.md`, "Warped tables"): the density is
+/// [`pdf_warped`] at the direction as returned.
+pub(crate) fn sample_warped(w: &WarpedEval, wi: [f32; 3], u: [f32; 2]) -> Option<Sample> {
+    let u = uniforms(u)?;
+    let wi = upper(wi)?;
+    let d = w.sample(wi, u)?;
+    let wo = [d[0] as f32, d[1] as f32, d[2] as f32];
+    let back = upper(wo)?;
+    let pdf = w.pdf(wi, back) as f32;
+    (pdf > 0.0 && pdf.is_finite()).then_some(Sample { wo, pdf })
+}
+
+/// [`super::sampling::pdf`] for warped tables.
+pub(crate) fn pdf_warped(w: &WarpedEval, wi: [f32; 3], wo: [f32; 3]) -> f32 {
+    let (Some(wi), Some(wo)) = (upper(wi), upper(wo)) else {
+        return 0.0;
+    };
+    w.pdf(wi, wo) as f32
 }

@@ -7,6 +7,8 @@ pub mod basis;
 pub mod encoder;
 pub mod fit;
 pub mod info;
+pub mod metrics;
+pub mod options;
 pub mod samples;
 pub mod settings;
 pub mod shared;

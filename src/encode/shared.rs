@@ -3,13 +3,13 @@
 //! measured incidence (the format's records carry the incidences, their sample positions and
 //! their errors).
 
-use crate::encode::encoder::{
-    metadata_envelope, sample_positions, EncodeOptions, Encoded, MetaLevel,
-};
 use crate::encode::fit::factor::{fit_factor, score, FactorOptions};
 use crate::encode::fit::stored_error;
+use crate::encode::metrics::{log_epsilon, ErrorSums};
+use crate::encode::options::{
+    metadata_envelope, sample_positions, EncodeOptions, Encoded, MetaLevel,
+};
 use crate::encode::samples::SampleSet;
-use crate::encode::validate::{log_epsilon, ErrorSums};
 use crate::error::{Error, Result};
 use crate::format::VERSION_MINOR_FACTOR;
 use crate::model::angles::mirror_deg;

@@ -6,6 +6,7 @@
 //! little-endian. A first letter in upper case marks a critical chunk, lower case an ancillary
 //! one that readers may skip.
 
+mod fields;
 mod read;
 mod read_records;
 mod warp_chunk;

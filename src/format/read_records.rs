@@ -1,7 +1,7 @@
 //! Reading records: a `RECD` chunk (one record, `spec/FORMAT.md` §3.3) or a `RECS` chunk (all
 //! of them, compact, §3.9); both end in the same values, read by one function.
 
-use super::read::{Fields, Head};
+use super::fields::{Fields, Head};
 use super::*;
 use crate::error::Result;
 use crate::model::material::*;

@@ -1,7 +1,7 @@
 //! The bytes of a `WARP` chunk (`spec/FORMAT.md` §3.10): read with every count checked before
 //! anything is allocated and the inflated payload bounded, and written.
 
-use super::read::Fields;
+use super::fields::Fields;
 use crate::error::Result;
 use crate::model::warped::{TableTransform, WarpedModel, MAX_GRID, MAX_NDF, MAX_WARP_GRID};
 use crate::model::warped::{MAX_LEVEL, MAX_WARP_VALUES, MIN_WARP_GRID};

@@ -57,13 +57,13 @@ fn push_chunk(out: &mut Vec<u8>, kind: [u8; 4], data: &[u8]) {
     out.extend_from_slice(&h.finalize().to_le_bytes());
 }
 
-/// Serialises a material. Fails only if it breaks an invariant of the format.
 /// The minor version `m` is written as, and whether its wavelengths are stored as a range.
 /// Version 1.1's range is used when the material allows 1.1 features (`version_minor` ≥ 1) and
 /// its wavelengths are evenly spaced; a factor model (`FACT`) is a 1.1 feature and an
 /// anisotropic lobe (kind 5) a 1.2 feature whatever the material asks. Compact records
-/// (`RECS`, 1.3) are used exactly when the material allows 1.3. A file without 1.1 features is
-/// written as 1.0, byte for byte. Reading the file back gives this minor version.
+/// (`RECS`, 1.3) are used exactly when the material allows 1.3; warped tables (`WARP`) make a
+/// file 1.4, 1.5 with the wavelet transform. A file without 1.1 features is written as 1.0,
+/// byte for byte. Reading the file back gives this minor version.
 pub fn written_version(m: &Material) -> (u16, bool) {
     let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
     if let Some(w) = &m.warped {
@@ -92,6 +92,7 @@ pub fn written_version(m: &Material) -> (u16, bool) {
     (minor, range)
 }
 
+/// Serialises a material. Fails only if it breaks an invariant of the format.
 pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     m.validate()
         .map_err(|e| Error::Parameter(format!("cannot write this material: {e}")))?;
@@ -259,7 +260,6 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     Ok(out)
 }
 
-/// The data of a `FACT` chunk (`FORMAT.md`, §3.7).
 /// The record's scale: 1 for f32, the power of two of §5 for f16.
 fn scale_of(r: &IncidentRecord) -> f32 {
     match r.precision {
@@ -293,6 +293,7 @@ fn record_values(d: &mut Vec<u8>, r: &IncidentRecord, scale: f32) {
     }
 }
 
+/// The data of a `FACT` chunk (`FORMAT.md`, §3.7).
 fn factor_chunk(f: &FactorModel) -> Vec<u8> {
     let mut d = vec![f.components.len() as u8, f.precision.code(), 0, 0];
     for r in &f.ranges {

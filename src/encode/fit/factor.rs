@@ -11,8 +11,8 @@
 //! zeros) free of invented light; and too little smoothing lets exp() of an unconstrained table
 //! explode between the samples, which the relative-error term of the CV score catches.
 
+use crate::encode::metrics::{fold_order, log_epsilon, ErrorSums};
 use crate::encode::samples::SampleSet;
-use crate::encode::validate::{fold_order, log_epsilon, ErrorSums};
 use crate::model::angles::dir_from_deg;
 use crate::model::factor::{
     Axis, FactorComponent, FactorModel, Feature, FeatureRanges, FeatureValues, Taps, ETA_MAX,
