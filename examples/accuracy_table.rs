@@ -1,4 +1,4 @@
-//! Prints the README's accuracy table: for each test set, relative error and bytes per incident
+//! Prints the accuracy table of `docs/guide/encoder.md`: for each test set, relative error and bytes per incident
 //! direction for the paper's method and for the defaults.
 //!
 //!     cargo run --release --example accuracy_table

@@ -1,4 +1,4 @@
-//! The folders of `src/` are the architecture (README, "Code map"): dependencies point one way,
+//! The folders of `src/` are the architecture (`docs/guide/code-map.md`): dependencies point one way,
 //! down the list below, so that a renderer's build (`model`, `format`, `decode`) never reaches
 //! the encoder or the program. This test reads the sources and fails on any reference that
 //! points up, and on files grown past the size a reader can hold in mind.

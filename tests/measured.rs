@@ -2,7 +2,7 @@
 //! materials and NIST PTFE, encoded with the defaults and measured by `validate`'s protocols —
 //! 5-fold over the outgoing samples, incidences left out — with the relative L2 and log errors
 //! of `spec/EVALUATION.md`, "Held-out error". Slow for a test (about a minute per material in
-//! an optimised build); the figures are in the README's "Measured data".
+//! an optimised build); the figures are in `docs/guide/measured.md`.
 
 mod common;
 use sbrdf::encode::validate::{validate, ValidateOptions, ValidationReport};

@@ -84,7 +84,7 @@ fn error_against_measurement(dec: &Decoder, b: &RglBsdf, t: usize, count: usize)
 
 #[test]
 fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
-    // The README's table: default budget 1% at the worst stored incidence, file ≤ 6.5 kB
+    // The table of `docs/guide/warped-tables.md`: default budget 1% at the worst stored incidence, file ≤ 6.5 kB
     // (1/100 of the 644 kB RGB .bsdf) with the program's metadata.
     let dir = tempfile::tempdir().unwrap();
     for name in MATERIALS {
@@ -206,7 +206,7 @@ fn the_decoder_follows_the_measurement_between_its_nodes() {
 fn an_incidence_left_out_is_predicted_from_its_neighbours() {
     // Held out: the file is written without stored incidence j, and the decoder's answer at
     // that viewing direction (blended between its neighbours in the warped square, as Mitsuba
-    // blends) is compared with the measurement there. The figures are the README's.
+    // blends) is compared with the measurement there. The figures are `docs/guide/warped-tables.md`'s.
     let mut all = Vec::new();
     for name in MATERIALS {
         let full = input(name);
@@ -237,7 +237,7 @@ fn an_incidence_left_out_is_predicted_from_its_neighbours() {
     all.sort_by(f64::total_cmp);
     let (median, worst) = (all[all.len() / 2], all[all.len() - 1]);
     eprintln!("held-out incidences: median {median:.4}, worst {worst:.4}");
-    // Measured (README, "Warped tables"): median 8.5%, 4.1–26% up to 60°, 46–71% at ≈ 70°,
+    // Measured (`docs/guide/warped-tables.md`, "Held out"): median 8.5%, 4.1–26% up to 60°, 46–71% at ≈ 70°,
     // where leaving an incidence out puts its neighbours 20° apart across the fastest change
     // of the lobe. Held at 1.5× the median and 1.4× the worst.
     assert!(median < 0.13, "median held-out incidence {median}");
@@ -265,7 +265,7 @@ fn spectral_version(name: &str) -> Vec<u8> {
 
 #[test]
 fn a_spectral_source_keeps_its_spectra_within_the_budget_and_size() {
-    // 41 bands: the README's spectral row; the file ≤ 9.5 kB (1/200 of the 1.9 MB source).
+    // 41 bands: `docs/guide/warped-tables.md`'s spectral row; the file ≤ 9.5 kB (1/200 of the 1.9 MB source).
     let dir = tempfile::tempdir().unwrap();
     for name in MATERIALS {
         let spec = spectral_version(name);

@@ -1,4 +1,4 @@
-"""Renders the README's Mitsuba 3 picture: the RGL measurement of Rosaline satin vinyl
+"""Renders the Mitsuba 3 picture of `docs/guide/renderers.md`: the RGL measurement of Rosaline satin vinyl
 (tests/data/rgl/satin_rosaline_rgb.bsdf) on two spheres, left through Mitsuba's own `measured`
 plugin (the RGL file itself), right through the `sbrdf` plugin on the file `sbrdf encode
 --rgb-to-spectrum jakob-hanika-2019` makes of it (defaults otherwise). RGB variant, because

@@ -7,7 +7,7 @@ float compressors, on the raw tables.
 
     pip install ./python zfpy pysz # the sbrdf binding (and its Mitsuba plugin); zfp, SZ3 anchors
     cargo build --release
-    python tools/rgl_front.py --out-json front.json            # README "Warped tables" tables
+    python tools/rgl_front.py --out-json front.json            # docs/guide/warped-tables.md's tables
     python tools/rgl_front.py --variant llvm_ad_spectral        # 41-band sources (made here)
     python tools/rgl_front.py --anchors-only                    # anchors alone: no encode, render
 

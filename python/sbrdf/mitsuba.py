@@ -24,7 +24,7 @@ the opposite naming of sbrdf, whose ``wi`` points toward the light):
 * ``sample`` draws the light-side direction for the camera-side one, ``Material.sample(si.wi)``,
   and returns eval/pdf; ``pdf`` is ``Material.pdf(si.wi, wo)``, the density of exactly that
   draw. Drawing from the camera side relies on reciprocity as every path tracer does (sbrdf's
-  README measures |ρ(wi, wo) − ρ(wo, wi)| at 0.06–0.11% for reciprocal inputs); the estimate
+  `docs/guide/library.md` ("Importance sampling") measures |ρ(wi, wo) − ρ(wo, wi)| at 0.06–0.11% for reciprocal inputs); the estimate
   stays unbiased either way, since weight and pdf are consistent;
 * spectral variants: the file is evaluated at the path's own four wavelengths
   (``si.wavelengths``). Outside the file's wavelength range the values at its ends are held

@@ -6,7 +6,7 @@
 //! Why: per-incidence SH backgrounds with analytic lobes, and the factor model, stop at 5–40% on
 //! dense measurements whose peaks are one sample wide on any regular angular grid; on the warped
 //! grid the same peaks span many nodes, the tables are smooth, and the error falls steadily as
-//! bytes grow, so any budget can be met (README, "Warped tables").
+//! bytes grow, so any budget can be met (`docs/guide/warped-tables.md`).
 //!
 //! The error is measured where the file stores the measurement: the relative L2 error of the
 //! spectra over an incidence's R × R nodes and every wavelength, in table units (the
