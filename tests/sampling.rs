@@ -3,8 +3,6 @@
 //! sampling; decoded values that are never negative; and how reciprocal the stored BRDF is,
 //! which decides whether a path tracer may swap wi and wo. Monte Carlo runs use fixed seeds.
 
-#![cfg(feature = "cli")]
-
 mod common;
 use common::*;
 use sbrdf::encode::fit::PeakMode;
