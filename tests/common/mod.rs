@@ -56,6 +56,31 @@ pub fn samples_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("samples")
 }
 
+/// Every golden file, as `samples/golden/MANIFEST` lists them (in its order), checked complete:
+/// the manifest and the folder's `.sbrdf` files are the same set, and there are at least 14.
+/// What "every golden file" means in the tests.
+#[allow(dead_code)] // not every test binary that includes `common` uses it
+pub fn golden_files() -> Vec<String> {
+    let dir = samples_dir().join("golden");
+    let manifest = std::fs::read_to_string(dir.join("MANIFEST")).unwrap();
+    let listed: Vec<String> = manifest
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .map(|l| l.split(':').next().unwrap().trim().to_string())
+        .collect();
+    let mut present: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".sbrdf"))
+        .collect();
+    present.sort();
+    let mut sorted = listed.clone();
+    sorted.sort();
+    assert_eq!(sorted, present, "MANIFEST and samples/golden disagree");
+    assert!(listed.len() >= 14, "{} golden files", listed.len());
+    listed
+}
+
 /// The paper's outgoing grid at the given incidences, sampled from `f`.
 pub fn sample_on_paper_grid(
     incidences: &[(f64, f64)],
