@@ -8,27 +8,11 @@ use sbrdf::encode::encoder::{encode, EncodeOptions};
 use sbrdf::io::synth::{paper_grid, sample_material, Phong, SpectrumTable};
 use sbrdf::Decoder;
 
-/// Every golden file the MANIFEST lists, in its order, plus the shipped sample: the "every golden
-/// file" of these properties is the manifest's, checked complete against the folder.
+/// Every golden file the MANIFEST lists ([`common::golden_files`]), in its order, plus the
+/// shipped sample.
 fn golden_decoders() -> Vec<Decoder> {
     let dir = common::samples_dir().join("golden");
-    let manifest = std::fs::read_to_string(dir.join("MANIFEST")).unwrap();
-    let listed: Vec<String> = manifest
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
-        .map(|l| l.split(':').next().unwrap().trim().to_string())
-        .collect();
-    let mut present: Vec<String> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".sbrdf"))
-        .collect();
-    present.sort();
-    let mut sorted = listed.clone();
-    sorted.sort();
-    assert_eq!(sorted, present, "MANIFEST and samples/golden disagree");
-    assert!(listed.len() >= 14, "{} golden files", listed.len());
-    let mut v: Vec<Decoder> = listed
+    let mut v: Vec<Decoder> = common::golden_files()
         .iter()
         .map(|n| Decoder::open(dir.join(n)).unwrap())
         .collect();
