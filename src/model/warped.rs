@@ -279,30 +279,45 @@ pub fn diagonal_order(r: usize) -> Vec<usize> {
     idx.into_iter().map(|(a, b)| a * r + b).collect()
 }
 
+/// Index j of a length-n signal under whole-sample symmetric extension (x₋ⱼ = xⱼ,
+/// x_{n−1+j} = x_{n−1−j}), for −n < j < 2n − 1.
+#[inline]
+fn mirrored(j: isize, n: usize) -> usize {
+    if j < 0 {
+        (-j) as usize
+    } else if j as usize >= n {
+        2 * (n - 1) - j as usize
+    } else {
+        j as usize
+    }
+}
+
+/// Where sample j of a level of length n goes in [low band | high band]: the even samples
+/// first (⌈n/2⌉ of them), then the odd ones.
+#[inline]
+fn band_slot(j: usize, n: usize) -> usize {
+    if j.is_multiple_of(2) {
+        j / 2
+    } else {
+        n.div_ceil(2) + j / 2
+    }
+}
+
 /// One level of the CDF 5/3 lifting on `x` (length n ≥ 2) with whole-sample symmetric
 /// extension (x₋₁ = x₁, x_n = x_{n−2}): predict, each odd sample minus half its two even
 /// neighbours; update, each even sample plus a quarter of its two odd neighbours; then the
 /// even samples (⌈n/2⌉, low band) before the odd ones (⌊n/2⌋, high band).
 pub fn lift53_forward(x: &mut [f64], scratch: &mut [f64]) {
     let n = x.len();
-    let at = |j: isize| -> usize {
-        if j < 0 {
-            (-j) as usize
-        } else if j as usize >= n {
-            2 * (n - 1) - j as usize
-        } else {
-            j as usize
-        }
-    };
+    let at = |j: usize, d: isize| mirrored(j as isize + d, n);
     for j in (1..n).step_by(2) {
-        x[j] -= 0.5 * (x[j - 1] + x[at(j as isize + 1)]);
+        x[j] -= 0.5 * (x[j - 1] + x[at(j, 1)]);
     }
     for j in (0..n).step_by(2) {
-        x[j] += 0.25 * (x[at(j as isize - 1)] + x[at(j as isize + 1)]);
+        x[j] += 0.25 * (x[at(j, -1)] + x[at(j, 1)]);
     }
-    let half = n.div_ceil(2);
     for j in 0..n {
-        scratch[if j % 2 == 0 { j / 2 } else { half + j / 2 }] = x[j];
+        scratch[band_slot(j, n)] = x[j];
     }
     x.copy_from_slice(&scratch[..n]);
 }
@@ -310,25 +325,16 @@ pub fn lift53_forward(x: &mut [f64], scratch: &mut [f64]) {
 /// The inverse of [`lift53_forward`]: interleave, undo the update, undo the prediction.
 pub fn lift53_inverse(x: &mut [f64], scratch: &mut [f64]) {
     let n = x.len();
-    let half = n.div_ceil(2);
     for j in 0..n {
-        scratch[j] = x[if j % 2 == 0 { j / 2 } else { half + j / 2 }];
+        scratch[j] = x[band_slot(j, n)];
     }
     x.copy_from_slice(&scratch[..n]);
-    let at = |j: isize| -> usize {
-        if j < 0 {
-            (-j) as usize
-        } else if j as usize >= n {
-            2 * (n - 1) - j as usize
-        } else {
-            j as usize
-        }
-    };
+    let at = |j: usize, d: isize| mirrored(j as isize + d, n);
     for j in (0..n).step_by(2) {
-        x[j] -= 0.25 * (x[at(j as isize - 1)] + x[at(j as isize + 1)]);
+        x[j] -= 0.25 * (x[at(j, -1)] + x[at(j, 1)]);
     }
     for j in (1..n).step_by(2) {
-        x[j] += 0.5 * (x[j - 1] + x[at(j as isize + 1)]);
+        x[j] += 0.5 * (x[j - 1] + x[at(j, 1)]);
     }
 }
 
