@@ -193,11 +193,24 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
             opts.max_error,
         )
     };
+    // What the file holds beside the tables, whichever transform codes them (σ's scale costs a
+    // VNDF total per NDF node: computed once).
+    let (ndf_precision, ndf) = ndf_stored(&input.ndf);
+    let shell = WarpedModel {
+        transform: TableTransform::Dct,
+        grid: r,
+        warp_grid: input.warp_grid,
+        sigma_scale: sigma_scale(input),
+        ndf_precision,
+        ndf,
+        steps: Vec::new(),
+        levels: Vec::new(),
+    };
     let chosen = match opts.transform {
         Some(t) => code(t),
         None => {
             let (dct, wavelet) = (code(TableTransform::Dct), code(TableTransform::Wavelet53));
-            let key = |c: &Coded| (!c.met, crate::format::warp_payload_len(&c.model(input, r)));
+            let key = |c: &Coded| (!c.met, crate::format::warp_payload_len(&c.model(&shell)));
             // Budget met first, then bytes; the DCT (readable by 1.4 decoders) kept on a tie.
             if key(&wavelet) < key(&dct) {
                 wavelet
@@ -207,8 +220,13 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         }
     };
     let step = chosen.steps.iter().cloned().fold(0f32, f32::max);
-    let (met, errors) = (chosen.met, chosen.errors.clone());
-    let model = chosen.model(input, r);
+    let (met, errors) = (chosen.met, chosen.errors);
+    let model = WarpedModel {
+        transform: chosen.transform,
+        steps: chosen.steps,
+        levels: chosen.levels,
+        ..shell
+    };
     let table_values: Vec<f64> = basis.clone();
     let wl: Vec<f64> = input.wavelengths.iter().map(|&v| v as f64).collect();
     let spectral = SpectralSpace {
@@ -261,17 +279,13 @@ struct Coded {
 }
 
 impl Coded {
-    fn model(&self, input: &WarpedInput, r: usize) -> WarpedModel {
-        let (ndf_precision, ndf) = ndf_stored(&input.ndf);
+    /// The model of these tables, the rest (grid, NDF, σ scale) from `shell`.
+    fn model(&self, shell: &WarpedModel) -> WarpedModel {
         WarpedModel {
             transform: self.transform,
-            grid: r,
-            warp_grid: input.warp_grid,
-            sigma_scale: sigma_scale(input),
-            ndf_precision,
-            ndf,
             steps: self.steps.clone(),
             levels: self.levels.clone(),
+            ..shell.clone()
         }
     }
 }
