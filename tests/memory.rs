@@ -4,6 +4,7 @@
 //! of materials; the bound is 4× the file. And that evaluating and sampling an opened
 //! material allocates nothing (renderers call them from their inner loops, on many threads).
 
+mod common;
 use sbrdf::Decoder;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -54,17 +55,14 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
 
-/// Every golden file and the shipped sample, sorted.
+/// Every golden file (the MANIFEST's, [`common::golden_files`]) and the shipped sample.
 fn materials() -> Vec<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("samples");
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir.join("golden"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "sbrdf"))
-        .collect();
-    paths.push(dir.join("ggx_slices.sbrdf"));
-    paths.sort();
-    paths
+    let dir = common::samples_dir();
+    common::golden_files()
+        .iter()
+        .map(|f| dir.join("golden").join(f))
+        .chain([dir.join("ggx_slices.sbrdf")])
+        .collect()
 }
 
 #[test]
