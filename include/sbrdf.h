@@ -37,11 +37,10 @@ int  sbrdf_eval(const sbrdf_t *b, const float wi[3], const float wo[3],
                 const float *wavelengths_nm, size_t count, float *out);
 /* Many pairs per call (a wavefront, a tile): pair i is the 3 floats at wi + i*wi_stride and at
  * wo + i*wo_stride (strides in floats: 3 = packed, 0 = one vector for every pair); its count
- * values go to out[i*count ...]. The same values as sbrdf_eval pair by pair (a zero or
- * non-finite vector gives 0 rather than an error): bit for bit, except with count = 1 on the
- * encoder's default files, where a vectorised kernel agrees with sbrdf_eval to a few float
- * roundings and gives the same bits whatever the batch or the CPU; work that depends on wi
- * alone is done once per run of pairs with the same wi. Thread-safe, no allocation. */
+ * values go to out[i*count ...]. The same values as sbrdf_eval pair by pair, bit for bit,
+ * whatever the batch or the CPU (a zero or non-finite vector gives 0 rather than an error);
+ * work that depends on wi alone is done once per run of pairs with the same wi. Thread-safe,
+ * no allocation. */
 int  sbrdf_eval_batch(const sbrdf_t *b, size_t n, const float *wi, size_t wi_stride,
                       const float *wo, size_t wo_stride, const float *wavelengths_nm,
                       size_t count, float *out);

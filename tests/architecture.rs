@@ -308,11 +308,10 @@ fn import_circles(files: &[(Vec<String>, String)]) -> Vec<String> {
     out
 }
 
-/// The circles issue 24 leaves for its evaluation plan: the evaluator owns the one-wavelength
-/// kernel and the θ-line path, whose code takes the evaluator back (`impl Evaluator` in
-/// `line.rs`, `Kernel` methods given `&Evaluator`). Any other circle fails, and so does this
-/// one once it is gone (then delete it here).
-const KNOWN_CIRCLES: [&str; 1] = ["decode/evaluator, decode/kernel, decode/line"];
+/// Circles allowed between files of a room: none (the last, the evaluator, its one-wavelength
+/// kernel and the θ-line path taking each other, went with issue 24: the kernel now reads the
+/// resident arrays and hands back the queries it does not take).
+const KNOWN_CIRCLES: [&str; 0] = [];
 
 #[test]
 fn no_import_circle_between_files_of_a_room() {

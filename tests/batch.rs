@@ -1,9 +1,10 @@
-//! The batch entry point and the decoder's resident form, on every golden file: `eval_batch`
-//! writes exactly (bit for bit) what `eval` writes pair by pair (at one wavelength on a θ line,
-//! to a few binary32 roundings: `one_wavelength`), with one incident or outgoing
-//! direction broadcast over the batch, runs of repeated incident directions, hostile vectors and
-//! wavelengths; the material a decoder rebuilds from its resident form is the one the reader
-//! returned, and writing it back gives the file's bytes.
+//! The batch entry point, the one-wavelength view and the decoder's resident form, on every
+//! golden file: `eval_batch` writes exactly (bit for bit) what `eval` writes pair by pair, and
+//! `Decoder::at(λ)` what `eval` writes at `[λ]`, whatever width the batch kernel runs at
+//! (one lane, AVX2, AVX-512: each that this CPU has), with one incident or outgoing direction
+//! broadcast over the batch, runs of repeated incident directions, hostile vectors and
+//! wavelengths, and over a million random pairs; the material a decoder rebuilds from its
+//! resident form is the one the reader returned, and writing it back gives the file's bytes.
 
 use sbrdf::{read_material, write_material, Decoder, Limits};
 use std::path::PathBuf;
@@ -90,36 +91,32 @@ fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
 }
 
-/// One wavelength: files on a θ line take the batch kernel (`src/decode/kernel/`), whose sums
-/// and `exp`/`ln` are its own, so a pair's value is `eval`'s to a few binary32 roundings (as
-/// `eval` is the general path's, below); other files' are `eval`'s bit for bit. Either way a
-/// pair's value does not depend on the batch it came in: each pair alone gives the same bits.
-fn one_wavelength(
-    dec: &Decoder,
-    a: &[[f32; 3]],
-    b: &[[f32; 3]],
-    l: f32,
-    got: &[f32],
-    want: &[f32],
-    path: &std::path::Path,
-) {
-    let scale = want.iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
-    for (i, (&g, &w)) in got.iter().zip(want).enumerate() {
-        let tol = 4e-7 * (w as f64).abs() + 2e-9 * scale;
-        assert!(
-            g.to_bits() == w.to_bits() || (g as f64 - w as f64).abs() <= tol,
-            "{}: pair {i} at {l} nm: batch {g}, eval {w}",
-            path.display()
+/// The decoder as opened, and with its batch kernel at each width this CPU has (files without
+/// the kernel: as opened only).
+fn widths(bytes: &[u8]) -> Vec<(String, Decoder)> {
+    let dec = Decoder::from_bytes(bytes).unwrap();
+    let mut v = vec![("as opened".to_string(), dec.clone())];
+    for lanes in [1, 4, 8] {
+        if let Some(d) = dec.clone().with_kernel_lanes(lanes) {
+            v.push((format!("{lanes} lanes"), d));
+        }
+    }
+    v
+}
+
+/// `Decoder::at(λ)` gives `eval`'s bits at `[λ]` for every pair.
+fn at_is_eval(dec: &Decoder, a: &[[f32; 3]], b: &[[f32; 3]], l: f32, want: &[f32], what: &str) {
+    let at = dec.at(l);
+    let n = a.len().max(b.len());
+    for i in 0..n {
+        let (x, y) = (
+            a[if a.len() == 1 { 0 } else { i }],
+            b[if b.len() == 1 { 0 } else { i }],
         );
-        let mut alone = [f32::NAN];
-        let pick = |v: &[[f32; 3]]| [v[if v.len() == 1 { 0 } else { i }]];
-        dec.eval_batch(&pick(a), &pick(b), &[l], &mut alone)
-            .unwrap();
         assert_eq!(
-            alone[0].to_bits(),
-            g.to_bits(),
-            "{}: pair {i} at {l} nm alone and in the batch",
-            path.display()
+            at.eval(x, y).to_bits(),
+            want[i].to_bits(),
+            "{what}: pair {i} at {l} nm through at(λ)"
         );
     }
 }
@@ -152,25 +149,75 @@ fn a_batch_is_eval_pair_by_pair() {
                 (&wi[..0], &wo[..0]),
             ] {
                 let n = a.len().max(b.len());
-                let mut out = vec![f32::NAN; n * wl.len() + 3];
-                dec.eval_batch(a, b, wl, &mut out).unwrap();
                 let want = per_pair(&dec, a, b, wl);
-                if wl.len() == 1 {
-                    one_wavelength(&dec, a, b, wl[0], &out[..n], &want, &path);
-                } else {
+                for (width, d) in widths(&bytes) {
+                    let mut out = vec![f32::NAN; n * wl.len() + 3];
+                    d.eval_batch(a, b, wl, &mut out).unwrap();
                     assert_eq!(
                         bits(&out[..n * wl.len()]),
                         bits(&want),
-                        "{} with {} wavelengths",
+                        "{} with {} wavelengths, batch {width}",
                         path.display(),
                         wl.len()
                     );
+                    // Nothing written past the rows.
+                    assert!(out[n * wl.len()..].iter().all(|v| v.is_nan()));
                 }
-                // Nothing written past the rows.
-                assert!(out[n * wl.len()..].iter().all(|v| v.is_nan()));
+                if let [l] = wl[..] {
+                    at_is_eval(&dec, a, b, l, &want, &path.display().to_string());
+                }
             }
         }
     }
+}
+
+/// A million random pairs (pseudo-random, fixed seed) spread over the golden files, at 1, 4
+/// and 31 wavelengths: `eval`, `eval_batch` at every kernel width and `at(λ)` give the same
+/// bits.
+#[test]
+fn a_million_random_pairs_give_the_same_bits_by_every_route() {
+    let files = files();
+    let per_file = 1_000_000 / files.len() + 1;
+    let mut rng = Rng(0x0dd_ba11_5eed_cafe);
+    let mut checked = 0usize;
+    for (path, bytes) in &files {
+        let what = path.display().to_string();
+        let dec = Decoder::from_bytes(bytes).unwrap();
+        let (wi, wo): (Vec<[f32; 3]>, Vec<[f32; 3]>) =
+            (0..per_file).map(|_| (rng.dir(), rng.dir())).unzip();
+        let w = dec.material().wavelengths.clone();
+        let (lo, hi) = (w[0], w[w.len() - 1]);
+        let spread = |m: usize| -> Vec<f32> {
+            (0..m)
+                .map(|j| lo - 10.0 + (hi - lo + 20.0) * (j as f32 + 0.37) / m as f32)
+                .collect()
+        };
+        for m in [1, 4, 31] {
+            let wl = spread(m);
+            let want = per_pair(&dec, &wi, &wo, &wl);
+            let routes = if m == 1 {
+                widths(bytes)
+            } else {
+                vec![("as opened".to_string(), dec.clone())]
+            };
+            for (width, d) in routes {
+                let mut out = vec![0.0f32; per_file * m];
+                d.eval_batch(&wi, &wo, &wl, &mut out).unwrap();
+                if let Some(i) = (0..out.len()).find(|&i| out[i].to_bits() != want[i].to_bits()) {
+                    panic!(
+                        "{what}: {m} wavelengths, batch {width}: value {i} is {} against eval's {}",
+                        out[i], want[i]
+                    );
+                }
+            }
+            if m == 1 {
+                at_is_eval(&dec, &wi, &wo, wl[0], &want, &what);
+            }
+            assert!(want.iter().any(|&v| v > 0.0), "{what}: all zero");
+            checked += per_file;
+        }
+    }
+    assert!(checked >= 3_000_000, "{checked} pair evaluations");
 }
 
 #[test]

@@ -66,7 +66,7 @@ fn materials() -> Vec<PathBuf> {
 }
 
 #[test]
-fn evaluation_and_sampling_allocate_nothing() {
+fn evaluation_at_wavelengths_and_sampling_allocate_nothing() {
     let paths = materials();
     // The SH constants are the process's, built on first use (as in the test below): one
     // evaluation of a file with SH records first.
@@ -112,6 +112,15 @@ fn evaluation_and_sampling_allocate_nothing() {
                 total += s.pdf as f64;
             }
             total += dec.eval_linear_srgb(wi, wo, sbrdf::decode::color::Illuminant::D65)[1];
+        }
+        // The one-wavelength view: made and used without allocating.
+        for l in [550.0f32, all[0], f32::NAN] {
+            let at = dec.at(l);
+            for &(wi, wo) in &pairs {
+                total += at.eval(wi, wo) as f64;
+            }
+            at.eval_batch(&wis[..64], &wos[..64], &mut out).unwrap();
+            total += out[0] as f64;
         }
         for (wi, wo) in wis.chunks(64).zip(wos.chunks(64)) {
             for wl in [&one[..], &four[..], &all[..]] {

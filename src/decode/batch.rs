@@ -6,8 +6,11 @@
 //! [`Decoder::eval`](crate::Decoder::eval)'s: the same operations in the same order, through
 //! the same shortcuts (one wavelength on a θ line, node sums for many wavelengths).
 
-use super::evaluator::{Evaluator, Incident, LobeShape, Shapes, SMALL_TERMS};
+use super::blend::{Incident, LobeShape, Shapes};
+use super::evaluator::{Evaluator, SMALL_TERMS};
+use super::kernel::lanes_batch::Pairs;
 use super::lattice::{upper, QueryFrame};
+use crate::error::{Error, Result};
 use crate::model::spectral::{Cell, SpectrumEvaluator, NODE_SUMS};
 
 /// Basis values kept for a batch: K·M of them at most (8 KiB on the stack).
@@ -18,6 +21,47 @@ const CELLS: usize = 512;
 /// The incident side of the current run of pairs; None when ωi gives ρ = 0 (zero, not finite,
 /// below the horizon).
 type Cached = Option<(QueryFrame, Incident)>;
+
+/// [`crate::Decoder::eval_batch`]: the slices checked (nothing written on an error), then
+/// [`eval_batch`].
+pub(crate) fn checked(
+    ev: &Evaluator,
+    wi: &[[f32; 3]],
+    wo: &[[f32; 3]],
+    wavelengths: &[f32],
+    out: &mut [f32],
+) -> Result<()> {
+    let n = match (wi.len(), wo.len()) {
+        (a, b) if a == b => a,
+        (1, b) => b,
+        (a, 1) => a,
+        (a, b) => {
+            return Err(Error::Parameter(format!(
+                "eval_batch: {a} incident and {b} outgoing directions (give as many of \
+                     each, or one of either)"
+            )))
+        }
+    };
+    let need = n.checked_mul(wavelengths.len());
+    if need.is_none_or(|need| out.len() < need) {
+        return Err(Error::Parameter(format!(
+            "eval_batch: {n} pairs × {} wavelengths need {} output values, {} given",
+            wavelengths.len(),
+            n.saturating_mul(wavelengths.len()),
+            out.len()
+        )));
+    }
+    let (wi_step, wo_step) = (usize::from(wi.len() != 1), usize::from(wo.len() != 1));
+    eval_batch(
+        ev,
+        |i| wi[i * wi_step],
+        |i| wo[i * wo_step],
+        n,
+        wavelengths,
+        out,
+    );
+    Ok(())
+}
 
 /// `out[i·M..(i+1)·M]` = ρ(wi(i), wo(i), λ) for i < n, M = `wavelengths.len()`. The caller
 /// checked that `out` holds n·M values.
@@ -71,9 +115,16 @@ pub(crate) fn eval_batch(
     } else {
         &cells[..0]
     };
-    if let (Some(kernel), 1, true) = (&ev.kernel, m, tabulated) {
-        // One wavelength on a θ line: the kernel, its pairs sorted by group, four lanes at once.
-        kernel.batch(ev, &wi, &wo, n, basis, out);
+    if let (Some((kernel, st)), 1, true) = (ev.kernel_input(), m, tabulated) {
+        // One wavelength on a θ line: the kernel, its pairs sorted by group, W lanes at once.
+        let fallback = |i: usize| ev.line_fallback(wi(i), wo(i), basis);
+        let pairs = Pairs {
+            wi: &wi,
+            wo: &wo,
+            n,
+            fallback,
+        };
+        kernel.batch(st, &pairs, basis, out);
         return;
     }
     if ev.on_line() {
@@ -104,7 +155,7 @@ pub(crate) fn eval_batch(
                 (q, ev.incident(q.theta, q.phi, Some(q.wi)))
             });
             if let Some((_, inc)) = &cached {
-                ev.shapes(inc, &mut shapes);
+                ev.res.shapes(inc, &mut shapes);
             }
         }
         let Some((q, inc)) = &cached else {

@@ -114,8 +114,7 @@ pub unsafe extern "C" fn sbrdf_eval(
 /// ρ for `n` direction pairs in one call: pair i is the three floats at `wi + i·wi_stride` and
 /// at `wo + i·wo_stride` (strides in floats: 3 for packed vectors, 0 to use one vector for every
 /// pair), for `count` wavelengths (nm); its values go to `out[i·count .. i·count + count]`.
-/// What `sbrdf_eval` gives pair by pair (bit for bit, except with `count` = 1 on the files of the
-/// θ-line path, to a few binary32 roundings: [`crate::Decoder::eval_batch`]), except that a
+/// What `sbrdf_eval` gives pair by pair, bit for bit ([`crate::Decoder::eval_batch`]), except that a
 /// pair with a zero or non-finite vector gives 0 instead of an error. The incident side of the query is computed once per run
 /// of pairs with the same `wi`, the spectral basis once per wavelength. Allocates nothing.
 #[no_mangle]

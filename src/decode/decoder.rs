@@ -1,6 +1,7 @@
 //! The decoder: opens a file once, then answers ρ(ωi, ωo, λ) without allocating, and draws
 //! outgoing directions in proportion to it.
 
+use super::at_wavelength::AtWavelength;
 use super::evaluator::Evaluator;
 use super::sampling::{self, Sample, SamplingWeights};
 use crate::error::{Error, Result};
@@ -160,17 +161,45 @@ impl Decoder {
             .eval_deg(incident, outgoing, wavelengths, out)
     }
 
+    /// The decoder at one wavelength λ (nm), for a renderer that asks many queries at one
+    /// wavelength (a hero-wavelength path tracer): what depends on λ alone (the spectral basis
+    /// values) is computed here, once, instead of on every query. Its answers are
+    /// [`Decoder::eval`]'s at `[λ]`, bit for bit. Never allocates; cheap to make and to copy.
+    ///
+    /// ```
+    /// # let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"),
+    /// #     "/samples/golden/ggx_3inc_default.sbrdf")).unwrap();
+    /// let decoder = sbrdf::Decoder::from_bytes(&bytes)?;
+    /// let at = decoder.at(550.0);
+    /// let (wi, wo) = ([0.3, 0.0, 0.954], [-0.3, 0.1, 0.949]);
+    /// let mut rho = [0.0f32];
+    /// decoder.eval(wi, wo, &[550.0], &mut rho);
+    /// assert_eq!(at.eval(wi, wo).to_bits(), rho[0].to_bits());
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
+    pub fn at(&self, wavelength: f32) -> AtWavelength<'_> {
+        AtWavelength::new(&self.evaluator, wavelength)
+    }
+
+    /// The same decoder with its batch kernel run `lanes` wide (1, 4 or 8): for tests, which
+    /// hold every width to the same bits on one machine. None where this CPU lacks the
+    /// instructions (8: AVX-512, 4: AVX2) or the file does not use the kernel.
+    #[doc(hidden)]
+    pub fn with_kernel_lanes(mut self, lanes: u32) -> Option<Self> {
+        self.evaluator = self.evaluator.with_kernel_lanes(lanes)?;
+        Some(self)
+    }
+
     /// ρ for many direction pairs at once: pair i is (`wi[i]`, `wo[i]`), and a slice of length 1
     /// is used for every pair (one light, many viewers, say). Row i of `out` (`wavelengths.len()`
-    /// values from i·`wavelengths.len()`) receives what [`Decoder::eval`] would write for pair i:
-    /// bit for bit, except at one wavelength for the files `eval` answers on its θ-line path
-    /// (isotropic, at most two lobes per record, the encoder's default), where a vectorised
-    /// kernel collapses each record's spectral terms once per group of pairs and agrees with
-    /// `eval` to a few binary32 roundings (`spec/EVALUATION.md`, "Rounding"); a pair's value
-    /// never depends on the batch it comes in or on the CPU. Work that depends on the incident
-    /// direction alone (the records to blend and the blended lobe shapes) is done once per run
-    /// of pairs with the same `wi`, and the spectral basis once per wavelength for the whole
-    /// batch. Never allocates.
+    /// values from i·`wavelengths.len()`) receives what [`Decoder::eval`] would write for pair i,
+    /// bit for bit, on every CPU and whatever else is in the batch. Work that depends on the
+    /// incident direction alone (the records to blend and the blended lobe shapes) is done once
+    /// per run of pairs with the same `wi`, and the spectral basis once per wavelength for the
+    /// whole batch; at one wavelength, on the files the encoder writes by default, the pairs
+    /// are sorted by the records they blend and evaluated four or eight at a time (AVX2,
+    /// AVX-512), each record's spectral terms applied once per group.
+    /// Never allocates.
     ///
     /// Errors (nothing written): `wi` and `wo` have different lengths, neither being 1, or
     /// `out` holds fewer than N·`wavelengths.len()` values.
@@ -181,36 +210,7 @@ impl Decoder {
         wavelengths: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
-        let n = match (wi.len(), wo.len()) {
-            (a, b) if a == b => a,
-            (1, b) => b,
-            (a, 1) => a,
-            (a, b) => {
-                return Err(Error::Parameter(format!(
-                    "eval_batch: {a} incident and {b} outgoing directions (give as many of \
-                     each, or one of either)"
-                )))
-            }
-        };
-        let need = n.checked_mul(wavelengths.len());
-        if need.is_none_or(|need| out.len() < need) {
-            return Err(Error::Parameter(format!(
-                "eval_batch: {n} pairs × {} wavelengths need {} output values, {} given",
-                wavelengths.len(),
-                n.saturating_mul(wavelengths.len()),
-                out.len()
-            )));
-        }
-        let (wi_step, wo_step) = (usize::from(wi.len() != 1), usize::from(wo.len() != 1));
-        super::batch::eval_batch(
-            &self.evaluator,
-            |i| wi[i * wi_step],
-            |i| wo[i * wo_step],
-            n,
-            wavelengths,
-            out,
-        );
-        Ok(())
+        super::batch::checked(&self.evaluator, wi, wo, wavelengths, out)
     }
 
     /// [`Decoder::eval_batch`] over vectors read through accessors (the C ABI's strided

@@ -7,19 +7,18 @@
 //! batch entry point ([`super::batch`]) computes the incident side once for a run of pairs that
 //! share ωi.
 
-use super::kernel::Kernel;
+use super::blend::{BlendInfo, Incident};
+use super::kernel::lanes_batch::Width;
+use super::kernel::{self, Kernel, Stored, KERNEL_TERMS};
 use super::lattice::{upper, Blend, Lattice, QueryFrame};
-use super::line::{line_lobes, line_sizes};
 use super::resident::{Rec, Resident};
+use super::sums::dot_f32;
 use super::warped::WarpedEval;
-use crate::model::angles::phi_delta;
-use crate::model::angles::{angle_between, deg_from_dir, dir_from_deg, dot, mirror_deg, polar_deg};
+use crate::model::angles::{deg_from_dir, dir_from_deg, polar_deg};
 use crate::model::factor::{FeatureValues, MAX_COMPONENTS, MAX_RANK};
-use crate::model::lobes::MicrofacetGeometry;
-use crate::model::material::{LobeKind, Material, MAX_LOBES, MAX_TERMS};
-use crate::model::sh::{sh_count, ShBasis, MAX_SH_LEVEL};
+use crate::model::material::Material;
+use crate::model::sh::sh_count;
 
-const MAX_SH: usize = sh_count(MAX_SH_LEVEL);
 /// Files within SH level 6 and 16 terms (every file the encoder writes by default) evaluate with
 /// small scratch arrays: zeroing the format's maxima (441 SH values, 256 terms) would cost more
 /// than the evaluation.
@@ -31,7 +30,7 @@ pub(crate) const SMALL_TERMS: usize = 16;
 pub(crate) struct Evaluator {
     pub(crate) res: Resident,
     pub(crate) lattice: Lattice,
-    small: bool,
+    pub(crate) small: bool,
     /// The stored θ range's ends with their sine and cosine: a query clamped to an end keeps
     /// its azimuth without trigonometry.
     pub(crate) theta_ends: [(f64, f64, f64); 2],
@@ -52,80 +51,8 @@ pub(crate) struct Evaluator {
     pub(crate) warped: Option<Box<WarpedEval>>,
 }
 
-/// T*, the highest SH level and the most lobes among the records a query blends, and bit li
-/// set when lobe position li is shared by all of them.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct BlendInfo {
-    pub terms: u16,
-    pub level: u8,
-    pub nlobes: u8,
-    pub shared: u8,
-}
-
-impl BlendInfo {
-    fn of(res: &Resident, recs: &[usize]) -> Self {
-        let r0 = &res.recs[recs[0]];
-        let (mut terms, mut level, mut nlobes) = (r0.terms, r0.level, r0.nlobes);
-        for &r in &recs[1..] {
-            let rec = &res.recs[r];
-            terms = terms.max(rec.terms);
-            level = level.max(rec.level);
-            nlobes = nlobes.max(rec.nlobes);
-        }
-        // Position li is shared when every blended record has a lobe there, of one kind.
-        let mut shared = 0u8;
-        for li in 0..nlobes as usize {
-            let kind = (r0.kinds >> (4 * li)) & 15;
-            if kind != 0
-                && recs
-                    .iter()
-                    .all(|&r| (res.recs[r].kinds >> (4 * li)) & 15 == kind)
-            {
-                shared |= 1 << li;
-            }
-        }
-        BlendInfo {
-            terms,
-            level,
-            nlobes,
-            shared,
-        }
-    }
-}
-
 /// A factor model's angular terms T_cr at one pair of directions.
 type FactorTerms = [f64; MAX_COMPONENTS * MAX_RANK];
-
-/// The shape of a lobe shared by the blended records, blended once per incidence.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct LobeShape {
-    /// The peak direction (kinds 1 and 4).
-    pub peak: [f64; 3],
-    /// Kind 4: [n, –, …]; kinds 2 and 3: [b, c, a, –, …]; kind 5: [bx, by, c, ax, ay, ψ];
-    /// rounded to f32 (`spec/EVALUATION.md`, "Lobes by position"); kind 1 blends its widths per
-    /// term at evaluation.
-    pub p: [f64; 6],
-}
-
-/// The incident side of a query: everything that does not depend on ωo.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Incident {
-    pub blend: Blend,
-    /// The evaluation incidence ωi* and its angles (degrees, in the records' frame).
-    pub wi: [f64; 3],
-    pub theta: f64,
-    pub phi: f64,
-    /// T* and the highest SH level among the blended records.
-    pub terms: usize,
-    pub level: usize,
-    /// The most lobes a blended record has, and bit li set when position li is shared.
-    pub nlobes: usize,
-    pub shared: u8,
-}
-
-/// The blended shapes of an incidence's shared lobes, by position (for a run of pairs that
-/// share the incidence).
-pub(crate) type Shapes = [LobeShape; MAX_LOBES];
 
 impl Evaluator {
     /// Prepares a material for evaluation; the caller has validated it.
@@ -153,11 +80,7 @@ impl Evaluator {
         let on_line = matches!(lattice, Lattice::Theta(_))
             && material.factor.is_none()
             && material.warped.is_none()
-            && line_sizes(material.sh_level, material.spectral.terms)
-            && material
-                .records
-                .iter()
-                .all(|r| line_lobes(&r.lobes.iter().map(|l| l.kind).collect::<Vec<_>>()));
+            && kernel::takes(material);
         let mut ev = Evaluator {
             res,
             alone,
@@ -174,7 +97,7 @@ impl Evaluator {
                 .map(|_| WavelengthNodes::new(&material.wavelengths)),
         };
         if ev.on_line {
-            ev.kernel = Some(Kernel::new(&ev));
+            ev.kernel = Some(Kernel::new(&ev.res, ev.theta_ends));
         }
         ev
     }
@@ -235,6 +158,12 @@ impl Evaluator {
     pub(crate) fn eval(&self, wi: [f32; 3], wo: [f32; 3], wavelengths: &[f32], out: &mut [f32]) {
         let n = wavelengths.len().min(out.len());
         let (out, wavelengths) = (&mut out[..n], &wavelengths[..n]);
+        if n == 1 && self.hoists_basis() {
+            // One wavelength: the route `eval_batch` takes, so both give the same bits.
+            let mut b = [0.0f64; SMALL_TERMS];
+            out[0] = self.eval_one(wi, wo, self.basis_at(wavelengths[0], &mut b));
+            return;
+        }
         let (Some(wi), Some(wo)) = (upper(wi), upper(wo)) else {
             out.fill(0.0);
             return;
@@ -246,37 +175,16 @@ impl Evaluator {
             return;
         }
         if self.on_line {
+            // Several wavelengths: the coefficients once (`b` is their scratch).
             let mut b = [0.0f64; SMALL_TERMS];
             let b = &mut b[..self.res.spectrum.terms()];
-            if n == 1 {
-                let l = wavelengths[0] as f64;
-                out[0] = if l.is_finite() {
-                    self.res.spectrum.basis(l, b);
-                    self.line_value(wi, wo, b).max(0.0) as f32
-                } else {
-                    0.0
-                };
-            } else {
-                // Several wavelengths: the coefficients once (`b` is their scratch).
-                self.line_coefficients(wi, wo, b);
-                self.res.spectrum.eval_clamped(b, wavelengths, out);
-            }
+            self.line_coefficients(wi, wo, b);
+            self.res.spectrum.eval_clamped(b, wavelengths, out);
             return;
         }
         let q = self.query_frame(wi);
         let inc = self.incident(q.theta, q.phi, Some(q.wi));
         let wo = q.in_frame(wo);
-        if n == 1 && self.one_wavelength(&inc) {
-            let l = wavelengths[0] as f64;
-            out[0] = if l.is_finite() {
-                let mut b = [0.0f64; SMALL_TERMS];
-                self.res.spectrum.basis(l, &mut b[..inc.terms]);
-                self.value_at(&inc, None, wo, &b[..inc.terms]).max(0.0) as f32
-            } else {
-                0.0
-            };
-            return;
-        }
         if let Some(t) = self.factor_terms(q.wi, wo) {
             self.outgoing(&inc, wo, |c| {
                 for (o, &l) in out.iter_mut().zip(wavelengths) {
@@ -288,6 +196,98 @@ impl Evaluator {
         self.outgoing(&inc, wo, |c| {
             self.res.spectrum.eval_clamped(c, wavelengths, out)
         });
+    }
+
+    /// Whether one-wavelength queries can be answered from that wavelength's basis values
+    /// computed beforehand ([`Evaluator::eval_one`]): the pairs share an incident side (no
+    /// factor model, no warped tables) and the file has at most [`SMALL_TERMS`] terms.
+    #[inline(always)]
+    pub(crate) fn hoists_basis(&self) -> bool {
+        !self.per_pair() && self.res.spectrum.terms() <= SMALL_TERMS.min(KERNEL_TERMS)
+    }
+
+    /// The basis values B_0..B_{K−1} at wavelength `l` (nm) in the front of `b`; NaN in the
+    /// first when `l` is not finite (ρ = 0 there). The caller checked
+    /// [`Evaluator::hoists_basis`].
+    #[inline(always)]
+    pub(crate) fn basis_at<'a>(&self, l: f32, b: &'a mut [f64; SMALL_TERMS]) -> &'a [f64] {
+        let b = &mut b[..self.res.spectrum.terms()];
+        if (l as f64).is_finite() {
+            self.res.spectrum.basis(l as f64, b);
+        } else if let Some(b0) = b.first_mut() {
+            *b0 = f64::NAN;
+        }
+        b
+    }
+
+    /// ρ at the one wavelength whose basis values are `b` ([`Evaluator::basis_at`]), clamped
+    /// at 0: the same operations, in the same order, as [`super::batch`] gives the pair at
+    /// that wavelength (the kernel on a θ line, one lane; otherwise the terms summed before the
+    /// records, or the coefficients against `b`). The caller checked
+    /// [`Evaluator::hoists_basis`].
+    #[inline(always)]
+    pub(crate) fn eval_one(&self, wi: [f32; 3], wo: [f32; 3], b: &[f64]) -> f32 {
+        if b.first().is_none_or(|v| v.is_nan()) {
+            return 0.0;
+        }
+        if let Some((kernel, st)) = self.kernel_input() {
+            return kernel
+                .one(st, wi, wo, b)
+                .unwrap_or_else(|| self.line_fallback(wi, wo, b));
+        }
+        let (Some(wi), Some(wo)) = (upper(wi), upper(wo)) else {
+            return 0.0;
+        };
+        let q = self.query_frame(wi);
+        let inc = self.incident(q.theta, q.phi, Some(q.wi));
+        let wo = q.in_frame(wo);
+        if self.one_wavelength(&inc) {
+            return self.value_at(&inc, None, wo, &b[..inc.terms]).max(0.0) as f32;
+        }
+        self.outgoing(&inc, wo, |c| {
+            let mut sum = 0.0;
+            for (ck, bk) in c.iter().zip(b) {
+                sum += ck * bk;
+            }
+            sum.max(0.0) as f32
+        })
+    }
+
+    /// The evaluator with its kernel's batch `lanes` wide (1, 4, 8); None when this CPU
+    /// cannot or the file has no kernel.
+    pub(crate) fn with_kernel_lanes(mut self, lanes: u32) -> Option<Self> {
+        let width = match lanes {
+            1 => Width::Base,
+            4 => Width::Avx2,
+            8 => Width::Avx512,
+            _ => return None,
+        };
+        self.kernel = Some(self.kernel?.with_width(width)?);
+        Some(self)
+    }
+
+    /// The kernel of a file on the θ-line path, with what it reads.
+    #[inline(always)]
+    pub(crate) fn kernel_input(&self) -> Option<(&Kernel, Stored<'_>)> {
+        match (&self.kernel, &self.lattice) {
+            (Some(k), Lattice::Theta(axis)) => Some((
+                k,
+                Stored {
+                    res: &self.res,
+                    axis,
+                },
+            )),
+            _ => None,
+        }
+    }
+
+    /// ρ at basis values `b` for a pair the kernel leaves to the θ-line path, clamped at 0.
+    #[cold]
+    pub(crate) fn line_fallback(&self, wi: [f32; 3], wo: [f32; 3], b: &[f64]) -> f32 {
+        match (upper(wi), upper(wo)) {
+            (Some(a), Some(o)) => self.line_value(a, o, b).max(0.0) as f32,
+            _ => 0.0,
+        }
     }
 
     /// The query's incident direction in the records' frame (`wi` a unit vector with z ≥ 0).
@@ -470,390 +470,6 @@ impl Evaluator {
         }
         sum
     }
-
-    /// Every shared lobe's blended shape into `shapes`, for reuse over a run of pairs.
-    pub(crate) fn shapes(&self, inc: &Incident, shapes: &mut Shapes) {
-        for (li, s) in shapes.iter_mut().enumerate().take(inc.nlobes) {
-            if inc.shared & (1 << li) != 0 {
-                *s = self.shared_shape(inc, li);
-            }
-        }
-    }
-
-    /// The blended shape of the shared lobe at position `li`: exponents and microfacet b, c (bx,
-    /// by) geometrically, microfacet a (ax, ay) linearly, the axis by [`Evaluator::blended_axis`],
-    /// the peak direction by "Blended peak direction".
-    #[inline(always)]
-    pub(crate) fn shared_shape(&self, inc: &Incident, li: usize) -> LobeShape {
-        let res = &self.res;
-        let recs = &inc.blend.rec[..inc.blend.n];
-        let ws = &inc.blend.w[..inc.blend.n];
-        let r0 = &res.recs[recs[0]];
-        let l0 = res.lobe(r0, li);
-        let single = recs.len() == 1;
-        let geo = |i: usize| -> f64 {
-            if single {
-                return res.params[l0.par as usize + i] as f64;
-            }
-            let mut s = 0.0;
-            for (&r, &w) in recs.iter().zip(ws) {
-                s += w * res.ln_params[res.lobe(&res.recs[r], li).par as usize + i];
-            }
-            s.exp()
-        };
-        let lin = |i: usize| -> f64 {
-            if single {
-                return res.params[l0.par as usize + i] as f64;
-            }
-            let (mut wa, mut wsum) = (0.0, 0.0);
-            for (&r, &w) in recs.iter().zip(ws) {
-                wa += w * res.params[res.lobe(&res.recs[r], li).par as usize + i] as f64;
-                wsum += w;
-            }
-            wa / wsum
-        };
-        let r32 = |v: f64| v as f32 as f64;
-        match l0.kind {
-            LobeKind::AngleGaussian => LobeShape {
-                peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
-                p: [0.0; 6],
-            },
-            LobeKind::CosinePower => LobeShape {
-                peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
-                p: [geo(0), 0.0, 0.0, 0.0, 0.0, 0.0],
-            },
-            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => LobeShape {
-                peak: [0.0; 3],
-                p: [r32(geo(0)), r32(geo(1)), r32(lin(2)), 0.0, 0.0, 0.0],
-            },
-            LobeKind::MicrofacetAniso => LobeShape {
-                peak: [0.0; 3],
-                p: [
-                    r32(geo(0)),
-                    r32(geo(1)),
-                    r32(geo(2)),
-                    r32(lin(3)),
-                    r32(lin(4)),
-                    r32(self.blended_axis(recs, ws, li)),
-                ],
-            },
-        }
-    }
-
-    /// The axis angle ψ (degrees) of the kind-5 lobe at position `li` blended from the records
-    /// `recs` with weights `ws`: an axis, not a direction (ψ and ψ + 180° are one axis), so the
-    /// doubled angles are averaged; perpendicular axes with equal weights keep the first
-    /// record's (`spec/EVALUATION.md`, "Lobes by position").
-    pub(crate) fn blended_axis(&self, recs: &[usize], ws: &[f64], li: usize) -> f64 {
-        let res = &self.res;
-        let psi = |r: usize| res.params[res.lobe(&res.recs[r], li).par as usize + 5] as f64;
-        if recs.len() == 1 {
-            return psi(recs[0]);
-        }
-        crate::model::angles::mean_axis_deg(recs.iter().zip(ws).map(|(&r, &w)| (w, psi(r))))
-            .unwrap_or_else(|| psi(recs[0]))
-    }
-
-    /// The peak direction of a lobe blended from the records `recs` with weights `ws`, at the
-    /// evaluation incidence (θ, φ) in degrees (`spec/EVALUATION.md`, "Blended peak direction").
-    #[inline(always)]
-    pub(crate) fn blended_peak(
-        &self,
-        recs: &[usize],
-        ws: &[f64],
-        incidence: (f64, f64),
-    ) -> [f64; 3] {
-        let res = &self.res;
-        if recs.len() == 1 {
-            return res.recs[recs[0]].peak;
-        }
-        if res.isotropic {
-            // Records 1D in θ, one frame: the normalised weighted mean of their peaks.
-            let mut v = [0.0; 3];
-            for (&r, &w) in recs.iter().zip(ws) {
-                for (vi, pi) in v.iter_mut().zip(res.recs[r].peak) {
-                    *vi += w * pi;
-                }
-            }
-            let n2 = dot(v, v);
-            if n2 > 0.0 && n2.is_finite() {
-                let s = 1.0 / n2.sqrt();
-                return [v[0] * s, v[1] * s, v[2] * s];
-            }
-        }
-        // Records at different azimuths: blend the offsets from each one's mirror direction.
-        let (mut dt, mut dp) = (0.0, 0.0);
-        for (&r, &w) in recs.iter().zip(ws) {
-            let rec = &res.recs[r];
-            let (mt, mp) = mirror_deg(rec.theta_i as f64, rec.phi_i as f64);
-            // A peak at the pole has no azimuth: its offset is in θ alone.
-            if rec.theta_p != 0.0 {
-                dp += w * phi_delta(rec.phi_p as f64, mp);
-            }
-            dt += w * (rec.theta_p as f64 - mt);
-        }
-        let (mt, mp) = mirror_deg(incidence.0, incidence.1);
-        dir_from_deg(mt + dt, mp + dp)
-    }
-
-    /// Computes the blended coefficients c_0..c_{T*−1} at the unit outgoing vector `wo` (records'
-    /// frame) and passes them to `f`.
-    #[inline]
-    pub(crate) fn outgoing<R>(
-        &self,
-        inc: &Incident,
-        wo: [f64; 3],
-        f: impl FnOnce(&[f64]) -> R,
-    ) -> R {
-        self.with_coefficients(inc, None, wo, f)
-    }
-
-    /// [`Evaluator::coefficients`] into scratch arrays on the stack sized for the query (zeroing
-    /// the format's maxima, 441 SH values and 256 terms, would cost more than the evaluation):
-    /// SH level ≤ 2 and ≤ 8 terms, level ≤ 6 and ≤ 16 terms, or the maxima.
-    #[inline(always)]
-    pub(crate) fn with_coefficients<R>(
-        &self,
-        inc: &Incident,
-        shapes: Option<&Shapes>,
-        wo: [f64; 3],
-        f: impl FnOnce(&[f64]) -> R,
-    ) -> R {
-        let t = inc.terms;
-        if inc.level <= 2 && t <= 8 {
-            let mut c = [0.0f64; 8];
-            self.coefficients::<{ sh_count(2) }>(inc, shapes, wo, &mut c[..t]);
-            f(&c[..t])
-        } else if self.small {
-            let mut c = [0.0f64; SMALL_TERMS];
-            self.coefficients::<SMALL_SH>(inc, shapes, wo, &mut c[..t]);
-            f(&c[..t])
-        } else {
-            let mut c = [0.0f64; MAX_TERMS];
-            self.coefficients::<MAX_SH>(inc, shapes, wo, &mut c[..t]);
-            f(&c[..t])
-        }
-    }
-
-    /// c\[k\] += the blended coefficients at `wo`; `c` holds T* zeros. `shapes`, when given,
-    /// holds [`Evaluator::shapes`] of `inc`.
-    #[inline(always)]
-    pub(crate) fn coefficients<const NSH: usize>(
-        &self,
-        inc: &Incident,
-        shapes: Option<&Shapes>,
-        wo: [f64; 3],
-        c: &mut [f64],
-    ) {
-        let res = &self.res;
-        let recs = &inc.blend.rec[..inc.blend.n];
-        let ws = &inc.blend.w[..inc.blend.n];
-        let mut y = [0.0f64; NSH];
-        ShBasis::shared().eval_to_level(inc.level, wo, &mut y);
-        // Term by term, every record's share summed in a register and written once.
-        for (k, ck) in c.iter_mut().enumerate() {
-            let mut acc = 0.0;
-            for (&r, &w) in recs.iter().zip(ws) {
-                let rec = &res.recs[r];
-                if k < rec.terms as usize {
-                    let p = sh_count(rec.level as usize);
-                    let at = rec.sh as usize + k * p;
-                    acc += w * dot_f32(&res.vals[at..at + p], &y[..p]);
-                }
-            }
-            *ck = acc;
-        }
-        // The microfacet geometry depends on the directions alone: computed at most once.
-        let mut geometry = None;
-        for li in 0..inc.nlobes {
-            if inc.shared & (1 << li) != 0 {
-                let kind = res.lobe(&res.recs[recs[0]], li).kind;
-                let shape = &match shapes {
-                    Some(s) => s[li],
-                    None => self.shared_shape(inc, li),
-                };
-                match kind {
-                    LobeKind::AngleGaussian => self.add_gaussian(c, recs, ws, li, wo, shape.peak),
-                    _ => {
-                        let (v, nv) = self.values(kind, shape, inc.wi, wo, &mut geometry);
-                        self.add_amplitudes(c, recs, ws, li, &v[..nv]);
-                    }
-                }
-            } else {
-                for (&r, &w) in recs.iter().zip(ws) {
-                    let rec = &res.recs[r];
-                    if li >= rec.nlobes as usize {
-                        continue;
-                    }
-                    let l = res.lobe(rec, li);
-                    if l.kind == LobeKind::AngleGaussian {
-                        self.add_gaussian(c, &[r], &[w], li, wo, rec.peak);
-                        continue;
-                    }
-                    let stored = res.params(rec, l);
-                    let mut shape = LobeShape {
-                        peak: rec.peak,
-                        p: [0.0; 6],
-                    };
-                    for (p, &v) in shape.p.iter_mut().zip(stored) {
-                        *p = v as f64;
-                    }
-                    let (v, nv) = self.values(l.kind, &shape, inc.wi, wo, &mut geometry);
-                    self.add_amplitudes(c, &[r], &[w], li, &v[..nv]);
-                }
-            }
-        }
-    }
-
-    /// The values a lobe of kind 2, 3 or 4 multiplies its amplitudes by at `wo`: four variants,
-    /// or the cosine power (one).
-    #[inline(always)]
-    pub(crate) fn values(
-        &self,
-        kind: LobeKind,
-        shape: &LobeShape,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        geometry: &mut Option<Option<MicrofacetGeometry>>,
-    ) -> ([f64; 4], usize) {
-        match kind {
-            LobeKind::CosinePower => {
-                // The cosine is capped at 1: rounding can exceed it, and a large exponent would
-                // turn 1 + ε into infinity. g^n as exp(n·ln g): powf's value to ~1e-15 relative,
-                // and a little quicker.
-                let g = dot(wo, shape.peak).min(1.0);
-                let v = if g > 0.0 {
-                    (shape.p[0] * g.ln()).exp()
-                } else {
-                    0.0 // 0ⁿ, without ln 0's division-by-zero trap
-                };
-                ([v, 0.0, 0.0, 0.0], 1)
-            }
-            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
-                match *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo)) {
-                    Some(g) => (
-                        g.variants_f64(
-                            [shape.p[0], shape.p[1], shape.p[2]],
-                            kind == LobeKind::MicrofacetSin2,
-                        ),
-                        4,
-                    ),
-                    None => ([0.0; 4], 4), // wi = −wo: every variant is 0
-                }
-            }
-            LobeKind::MicrofacetAniso => {
-                match *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo)) {
-                    Some(g) => (g.variants_aniso(shape.p, wi, wo), 4),
-                    None => ([0.0; 4], 4),
-                }
-            }
-            LobeKind::AngleGaussian => unreachable!("Gaussian lobes have per-term values"),
-        }
-    }
-
-    /// Adds angle-Gaussian lobe `li` of the records `recs` (weights `ws`), with peak `peak`:
-    /// per term, the amplitudes blended linearly and the widths geometrically over the records
-    /// that have the term.
-    pub(crate) fn add_gaussian(
-        &self,
-        c: &mut [f64],
-        recs: &[usize],
-        ws: &[f64],
-        li: usize,
-        wo: [f64; 3],
-        peak: [f64; 3],
-    ) {
-        let res = &self.res;
-        let a2 = angle_between(wo, peak).powi(2);
-        if recs.len() == 1 {
-            let rec = &res.recs[recs[0]];
-            let l = res.lobe(rec, li);
-            let (amp, width) = (res.amplitudes(rec, l, 0), res.params(rec, l));
-            for ((ck, &p), &b) in c.iter_mut().zip(amp).zip(width) {
-                *ck += ws[0] * (p as f64 * (-a2 / b as f64).exp());
-            }
-            return;
-        }
-        for (kk, ck) in c.iter_mut().enumerate() {
-            let (mut lw, mut wsum, mut amp) = (0.0, 0.0, 0.0);
-            for (&r, &w) in recs.iter().zip(ws) {
-                let rec = &res.recs[r];
-                if kk < rec.terms as usize {
-                    let l = res.lobe(rec, li);
-                    lw += w * res.ln_params[l.par as usize + kk];
-                    wsum += w;
-                    amp += w * res.vals[l.amp as usize + kk] as f64;
-                }
-            }
-            if wsum > 0.0 {
-                *ck += amp * (-a2 / (lw / wsum).exp()).exp();
-            }
-        }
-    }
-
-    /// c\[k\] += Σ_r w_r·Σ_j v\[j\]·amplitude_r\[j·T_r + k\] over the records (weights `ws`)
-    /// that have term k: lobe `li`'s values `v`, evaluated once, weighted by every record's
-    /// amplitudes; each c\[k\] is summed in a register and written once.
-    #[inline(always)]
-    fn add_amplitudes(&self, c: &mut [f64], recs: &[usize], ws: &[f64], li: usize, v: &[f64]) {
-        let res = &self.res;
-        let nv = v.len();
-        // Per record: w·v_j, where its amplitudes start, and its terms.
-        let mut scaled = [[0.0f64; 4]; 4];
-        let mut start = [0usize; 4];
-        let mut terms = [0usize; 4];
-        for (i, (&r, &w)) in recs.iter().zip(ws).enumerate() {
-            let rec = &res.recs[r];
-            start[i] = res.lobe(rec, li).amp as usize;
-            terms[i] = rec.terms as usize;
-            for (s, &vj) in scaled[i].iter_mut().zip(v) {
-                *s = w * vj;
-            }
-        }
-        let n = recs.len();
-        for (k, ck) in c.iter_mut().enumerate() {
-            let mut acc = 0.0;
-            for i in 0..n {
-                let t = terms[i];
-                if k < t {
-                    let amp = &res.vals[start[i] + k..start[i] + k + (nv - 1) * t + 1];
-                    for (j, &s) in scaled[i][..nv].iter().enumerate() {
-                        acc += s * amp[j * t] as f64;
-                    }
-                }
-            }
-            *ck += acc;
-        }
-    }
-}
-
-/// Σ a\[k\]·b\[k\] in order: a record's few spectral terms at one wavelength.
-#[inline(always)]
-pub(crate) fn dot_terms(a: &[f32], b: &[f64]) -> f64 {
-    let mut s = 0.0;
-    for (x, y) in a.iter().zip(b) {
-        s += *x as f64 * y;
-    }
-    s
-}
-
-/// Σ a\[j\]·b\[j\] in four interleaved partial sums: one running sum would make every
-/// addition wait for the last (a level-6 record has 49 terms per coefficient).
-#[inline(always)]
-pub(crate) fn dot_f32(a: &[f32], b: &[f64]) -> f64 {
-    let (mut s0, mut s1, mut s2, mut s3) = (0.0, 0.0, 0.0, 0.0);
-    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
-    let (ar, br) = (a4.remainder(), b4.remainder());
-    for (x, y) in a4.zip(b4) {
-        s0 += x[0] as f64 * y[0];
-        s1 += x[1] as f64 * y[1];
-        s2 += x[2] as f64 * y[2];
-        s3 += x[3] as f64 * y[3];
-    }
-    for (x, y) in ar.iter().zip(br) {
-        s0 += *x as f64 * y;
-    }
-    (s0 + s1) + (s2 + s3)
 }
 
 /// The file's wavelengths as interpolation nodes: a wavelength's bracket (j, a), value =

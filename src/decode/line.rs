@@ -6,21 +6,18 @@
 //! the blended shapes), with the generality those files do not need taken out: a query blends
 //! one record or two neighbours, whose lobes are read by position straight from the resident
 //! arrays, with no shape table, no Gaussian and no axis. One bookkeeping feeds two sinks: one
-//! wavelength's value, its terms summed before its records, or the coefficients c_k for several
-//! wavelengths. The two paths agree to rounding (`tests/batch.rs` holds `eval` to `eval_deg`,
-//! which takes the general path). A renderer's query at one wavelength is mostly this
-//! bookkeeping (a level-0 record is a handful of multiply-adds), so its cost is what decides the
-//! decoder against a table.
+//! wavelength's value, its terms summed before its records (for the few queries the kernel
+//! hands back: [`super::kernel`]), or the coefficients c_k for several wavelengths. The two
+//! paths agree to rounding (`tests/batch.rs` holds `eval` to `eval_deg`, which takes the
+//! general path).
 
-use super::evaluator::{dot_f32, dot_terms, Evaluator, SMALL_SH, SMALL_TERMS};
+use super::evaluator::{Evaluator, SMALL_SH};
 use super::lattice::{Blend, Lattice};
+use super::sums::{dot_f32, dot_terms};
 use crate::model::angles::{dot, polar_deg};
 use crate::model::lobes::MicrofacetGeometry;
 use crate::model::material::LobeKind;
 use crate::model::sh::{sh_count, ShBasis};
-
-/// The most lobes a record on the line path holds.
-pub(crate) const LINE_LOBES: usize = 2;
 
 impl Evaluator {
     /// ρ at one wavelength before the clamp, for unit vectors `wi`, `wo` (local frame, z ≥ 0)
@@ -169,7 +166,7 @@ impl Evaluator {
     }
 
     /// The values of the lobe at position `li`, shared by the blended records, at `wo`: its
-    /// shape blended as [`Evaluator::shared_shape`] blends it (exponent, b and c geometrically,
+    /// shape blended as [`Resident::shared_shape`](super::resident::Resident) blends it (exponent, b and c geometrically,
     /// a linearly, b, c and a rounded to f32; the peak by "Blended peak direction").
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
@@ -200,7 +197,7 @@ impl Evaluator {
         match kind {
             LobeKind::CosinePower => {
                 // "Blended peak direction", isotropic: the normalised weighted mean of the
-                // records' peaks (`Evaluator::blended_peak` when that vanishes).
+                // records' peaks (`Resident::blended_peak` when that vanishes).
                 let peak = if n == 1 {
                     res.recs[blend.rec[0]].peak
                 } else {
@@ -216,7 +213,8 @@ impl Evaluator {
                         let s = 1.0 / n2.sqrt();
                         [m[0] * s, m[1] * s, m[2] * s]
                     } else {
-                        self.blended_peak(&blend.rec[..n], &blend.w[..n], incidence)
+                        self.res
+                            .blended_peak(&blend.rec[..n], &blend.w[..n], incidence)
                     }
                 };
                 [cosine_power(geo(0), wo, peak), 0.0, 0.0, 0.0]
@@ -340,22 +338,6 @@ impl LineSink for Coefficients<'_> {
             *ck += w * sum;
         }
     }
-}
-
-/// Whether a record's lobes fit the line path: at most [`LINE_LOBES`], kinds 2–4.
-pub(crate) fn line_lobes(kinds: &[LobeKind]) -> bool {
-    kinds.len() <= LINE_LOBES
-        && kinds.iter().all(|k| {
-            matches!(
-                k,
-                LobeKind::CosinePower | LobeKind::Microfacet | LobeKind::MicrofacetSin2
-            )
-        })
-}
-
-/// The SH scratch size and term count the line path needs at most.
-pub(crate) fn line_sizes(level: usize, terms: usize) -> bool {
-    sh_count(level) <= SMALL_SH && terms <= SMALL_TERMS
 }
 
 /// g^n for g = wo·peak capped at 1, as exp(n·ln g); 0 where g ≤ 0 (no ln 0 trap).

@@ -2,13 +2,16 @@
 //! allocating), blending between stored incidences, importance sampling, spectrum to colour and
 //! the C ABI. Uses [`crate::model`] and [`crate::format`] only.
 
+mod at_wavelength;
 mod batch;
+mod blend;
 pub mod capi;
 mod cie;
 pub mod color;
 pub mod decoder;
 mod draw;
 mod evaluator;
+mod general;
 mod kernel;
 mod lattice;
 mod line;
@@ -16,9 +19,11 @@ mod one;
 mod proposal;
 mod resident;
 pub mod sampling;
+mod sums;
 mod warp2d;
 mod warped;
 
+pub use at_wavelength::AtWavelength;
 pub use decoder::Decoder;
 pub use draw::Sample;
 pub(crate) use warped::vndf_totals;

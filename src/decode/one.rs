@@ -4,7 +4,9 @@
 //! `spec/EVALUATION.md`). `eval` and the batch take it for one wavelength when the file is not on
 //! the θ-line path (`super::line`) and has no factor model.
 
-use super::evaluator::{dot_terms, Evaluator, Incident, LobeShape, Shapes, SMALL_SH, SMALL_TERMS};
+use super::blend::{Incident, LobeShape, Shapes};
+use super::evaluator::{Evaluator, SMALL_SH, SMALL_TERMS};
+use super::sums::dot_terms;
 use crate::model::material::LobeKind;
 use crate::model::sh::{sh_count, ShBasis};
 
@@ -68,7 +70,7 @@ impl Evaluator {
                 let kind = res.lobe(&res.recs[recs[0]], li).kind;
                 let shape = &match shapes {
                     Some(s) => s[li],
-                    None => self.shared_shape(inc, li),
+                    None => self.res.shared_shape(inc, li),
                 };
                 acc += match kind {
                     LobeKind::AngleGaussian => {

@@ -238,13 +238,13 @@ fn lobe_shape(
             let ln_b = ws.iter().zip(ln_widths).map(|(w, l)| w * l).sum::<f64>() / wsum;
             let kappa = 2.0 * (-ln_b).exp();
             Shape::VonMisesFisher {
-                p: dec.blended_peak(recs, ws, incidence),
+                p: dec.res.blended_peak(recs, ws, incidence),
                 kappa,
                 m: -(-2.0 * kappa).exp_m1(),
             }
         }
         LobeKind::CosinePower => Shape::CosinePower {
-            p: dec.blended_peak(recs, ws, incidence),
+            p: dec.res.blended_peak(recs, ws, incidence),
             n: geo_mean(0),
         },
         LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
@@ -259,7 +259,7 @@ fn lobe_shape(
                 r32(geo_mean(0)),
                 r32(geo_mean(1)),
                 r32(geo_mean(2)),
-                r32(dec.blended_axis(recs, ws, li)),
+                r32(dec.res.blended_axis(recs, ws, li)),
                 wi,
             )
         }

@@ -2,7 +2,7 @@
 //! geometry and variants, each lane the scalar formula of `spec/EVALUATION.md` ("Lobes") as
 //! `model::lobes` computes it.
 
-use super::{Frame, MIN_COS};
+use super::{Frame, KRec, AMPS, MIN_COS};
 use crate::model::angles::polar_lanes;
 use crate::model::lanes::{Lanes, Mask};
 
@@ -116,5 +116,42 @@ impl<const N: usize> Geometry<N> {
         let zero = Lanes::splat(0.0);
         [d * vs, d * vs * self.f, d * self.vc, d * self.vc * self.f]
             .map(|v| Lanes::select(self.ok, v, zero))
+    }
+}
+
+/// Record k's SH coefficients at basis values `b` into `a` (as many as fit):
+/// ã_j = Σ_k B_k·a_kj, k in order from 0.
+#[inline(always)]
+pub(super) fn collapse_sh(vals: &[f32], k: &KRec, b: &[f64], a: &mut [f64]) {
+    let (stride, t) = (k.p as usize, (k.terms as usize).min(b.len()));
+    let p = stride.min(a.len());
+    let a = &mut a[..p];
+    a.fill(0.0);
+    for (i, &bk) in b[..t].iter().enumerate() {
+        let at = k.sh as usize + i * stride;
+        for (x, &v) in a.iter_mut().zip(&vals[at..at + p]) {
+            *x += bk * v as f64;
+        }
+    }
+}
+
+/// Record k's lobe amplitudes at basis values `b`, per lobe position its variants', each
+/// Σ_k B_k·v_k in order from k = 0.
+#[inline(always)]
+pub(super) fn collapse_amps(vals: &[f32], k: &KRec, b: &[f64], amps: &mut [f64; AMPS]) {
+    let t = (k.terms as usize).min(b.len());
+    for (li, amps) in amps.chunks_exact_mut(4).enumerate() {
+        let nv = (k.nv[li] as usize).min(4);
+        let at = k.amp[li] as usize;
+        for (v, row) in amps[..nv]
+            .iter_mut()
+            .zip(vals[at..at + nv * t].chunks_exact(t.max(1)))
+        {
+            let mut d = 0.0;
+            for (&bk, &x) in b.iter().zip(row) {
+                d += bk * x as f64;
+            }
+            *v = d;
+        }
     }
 }

@@ -14,28 +14,42 @@
 //! pair's value is the same bits on every CPU and in any batch. The formulas are those of
 //! `spec/EVALUATION.md` ("Reconstruction", "Between stored incidences", "Lobes"); the order of
 //! the sums and the `exp` and `ln` ([`Lanes::exp`], [`Lanes::ln`], within 1 ulp) are the
-//! kernel's own, which "Rounding" allows: its values are `Evaluator::eval`'s to a few binary32
-//! roundings, not bit for bit (`tests/batch.rs` holds both to the general path and to each
-//! other). `eval` keeps the line path: for one query, collapsing a record's terms first costs
-//! more than it saves.
+//! kernel's own, which "Rounding" allows. `Evaluator::eval` at one wavelength is this kernel with
+//! one pair and one lane, so `eval` and `eval_batch` give the same bits; [`crate::Decoder::at`]
+//! collapses every record once per wavelength ([`Collapsed`]) and evaluates each query from
+//! them. The kernel reads the resident arrays and the θ axis it is given; the few queries it
+//! does not take (a group whose blended peak may vanish) it hands back to its caller.
 
 mod formulas;
+pub(crate) mod lanes_batch;
 
-use super::evaluator::{Evaluator, SMALL_SH};
-use super::lattice::{upper, Lattice};
-use super::line::LINE_LOBES;
+use super::lattice::Axis;
+use super::resident::Resident;
 use crate::model::lanes::{Lanes, Mask};
-use crate::model::material::LobeKind;
+use crate::model::material::{LobeKind, Material};
 use crate::model::sh::{sh_count, ShBasis};
-use formulas::{cosine_power, dot, frame, Geometry};
+use formulas::{collapse_amps, collapse_sh, cosine_power, dot, frame, Geometry};
+use lanes_batch::Width;
+
+/// The most lobes a record on the kernel's path (and the θ-line path) holds.
+pub(crate) const LINE_LOBES: usize = 2;
+/// The most SH values (level 6) and spectral terms a record on the kernel's path holds.
+pub(crate) const KERNEL_SH: usize = sh_count(6);
+pub(crate) const KERNEL_TERMS: usize = 16;
+/// Values a record occupies in a [`Collapsed`] table: its lobe amplitudes, then its SH
+/// coefficients.
+const COLLAPSED_STRIDE: usize = AMPS + KERNEL_SH;
+/// The values a [`Collapsed`] table holds: every record of a file with up to 17 records at
+/// SH level 6 (more at lower levels). 8 KiB, on the stack of whoever holds it.
+pub(crate) const COLLAPSED_VALUES: usize = 1024;
+/// A record's lobe amplitudes at one wavelength: per lobe position, its variants' (one for a
+/// cosine power, four otherwise), four slots each.
+pub(super) const AMPS: usize = 4 * LINE_LOBES;
+/// No amplitudes: the second slot of a group of one record.
+const NO_AMPS: [f64; AMPS] = [0.0; AMPS];
 
 /// The microfacet functions' floor on cosines (`MicrofacetGeometry`'s).
 const MIN_COS: f64 = 1e-6;
-/// Pairs a batch sorts by group at a time (their scratch lives on the stack).
-const BLOCK: usize = 256;
-/// The most groups (2n − 1 for n records) a batch sorts by counting; more take a comparison
-/// sort.
-const COUNTED_GROUPS: usize = 511;
 
 /// What the kernel knows of a file on a θ line.
 #[derive(Debug, Clone)]
@@ -46,26 +60,33 @@ pub(crate) struct Kernel {
     groups: Vec<Group>,
     /// Y_0^0 (a constant).
     y0: f64,
+    /// The stored θ range's ends with their sine and cosine: a query outside the range is
+    /// evaluated at the nearest end.
+    ends: [(f64, f64, f64); 2],
     /// The batch's widest lanes on this CPU.
     width: Width,
 }
 
-/// The vector instructions a batch uses: found once, when the file is opened.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Width {
-    /// Whatever the build targets (SSE2 on x86-64): four lanes as two pairs.
-    Base,
-    /// Four binary64 lanes per instruction.
-    Avx2,
-    /// Eight binary64 lanes per instruction.
-    Avx512,
+/// What a kernel evaluation reads: the resident arrays and the θ axis of the stored records.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Stored<'a> {
+    pub res: &'a Resident,
+    pub axis: &'a Axis,
+}
+
+/// Every record of a file with its spectral terms applied at one wavelength (what
+/// [`crate::Decoder::at`] keeps): record r's amplitudes and SH coefficients from
+/// r·[`COLLAPSED_STRIDE`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Collapsed {
+    values: [f64; COLLAPSED_VALUES],
 }
 
 /// A record as the kernel reads it: offsets of its SH rows and of each lobe position's
 /// amplitudes (into `vals`) and parameters (into `params`, `ln_params`), its terms, SH count
 /// and each lobe position's variant count (0: no lobe there).
 #[derive(Debug, Clone, Copy)]
-struct KRec {
+pub(super) struct KRec {
     sh: u32,
     amp: [u32; LINE_LOBES],
     par: [u32; LINE_LOBES],
@@ -93,19 +114,6 @@ enum Op {
     Own { slot: u8, li: u8, kind: LobeKind },
 }
 
-/// A group's records with the spectral terms applied at one wavelength: per record slot, its
-/// SH coefficients (`p` of them) and its lobe amplitudes.
-#[derive(Debug, Clone, Copy)]
-struct Collapsed {
-    sh: [[f64; SMALL_SH]; 2],
-    amps: [Amps; 2],
-    p: [u8; 2],
-}
-
-/// A record's lobe amplitudes with the spectral terms applied at one wavelength: per lobe
-/// position, its variants' (one for a cosine power, four otherwise).
-type Amps = [[f64; 4]; LINE_LOBES];
-
 /// The query side the kernel needs, per lane: the incident vector it is evaluated with, the
 /// outgoing vector in the records' frame and the two records' weights.
 #[derive(Debug, Clone, Copy)]
@@ -128,9 +136,9 @@ struct Frame<const N: usize> {
 }
 
 impl Kernel {
-    /// The kernel of a file on the line path.
-    pub(crate) fn new(ev: &Evaluator) -> Self {
-        let res = &ev.res;
+    /// The kernel of a file on the line path ([`takes`]); `ends` the stored θ range's ends
+    /// with their sine and cosine.
+    pub(crate) fn new(res: &Resident, ends: [(f64, f64, f64); 2]) -> Self {
         let n = res.recs.len();
         let kind = |r: usize, li: usize| {
             let rec = &res.recs[r];
@@ -218,8 +226,18 @@ impl Kernel {
             recs,
             groups,
             y0: ShBasis::shared().constant(),
+            ends,
             width: Width::detect(),
         }
+    }
+
+    /// The same kernel with the batch's lanes chosen (tests: every width on one machine);
+    /// a width this CPU lacks is refused.
+    pub(crate) fn with_width(mut self, width: Width) -> Option<Self> {
+        width.available().then(|| {
+            self.width = width;
+            self
+        })
     }
 
     /// Heap bytes held.
@@ -228,238 +246,127 @@ impl Kernel {
             + self.groups.capacity() * std::mem::size_of::<Group>()
     }
 
-    /// ρ for one pair at the wavelength whose basis values are `b`, clamped at 0.
+    /// ρ for one pair at the wavelength whose basis values are `b` (not NaN), clamped at 0;
+    /// None for a pair the kernel leaves to the θ-line path. The lanes of the batch compute
+    /// exactly this.
     #[inline]
-    fn one(&self, ev: &Evaluator, wi: [f32; 3], wo: [f32; 3], b: &[f64]) -> f32 {
+    pub(crate) fn one(&self, st: Stored, wi: [f32; 3], wo: [f32; 3], b: &[f64]) -> Option<f32> {
         let f = frame::<1>([wi], [wo]);
         if !f.valid.0[0] {
-            return 0.0;
+            return Some(0.0);
         }
-        let (g, t) = self.group_of(ev, f.theta.0[0]);
+        let (g, t) = self.group_of(st.axis, f.theta.0[0]);
         let group = &self.groups[g];
         if !group.fast {
-            return fallback(ev, wi, wo, b);
+            return None;
         }
-        let q = self.query(ev, g, &f, [t]);
-        let c = self.collapse(ev, g, b);
-        let mut y = [Lanes::splat(0.0); SMALL_SH];
-        let s = self.sh_parts(g, q.wo, &c, &mut y);
-        self.value(ev, g, s, &c.amps, &q).max(Lanes::splat(0.0)).0[0] as f32
+        // The scratch sized for the group's SH level: zeroing level 6's 49 values for a level-0
+        // group would cost more than its evaluation.
+        Some(match group.level {
+            0..=2 => self.one_sized::<{ sh_count(2) }>(st, g, t, &f, b),
+            3 | 4 => self.one_sized::<{ sh_count(4) }>(st, g, t, &f, b),
+            _ => self.one_sized::<KERNEL_SH>(st, g, t, &f, b),
+        })
     }
 
-    /// Group g's records collapsed at basis values `b`: what `one` does per pair and the
-    /// batch once per group and block.
     #[inline(always)]
-    fn collapse(&self, ev: &Evaluator, g: usize, b: &[f64]) -> Collapsed {
+    fn one_sized<const NSH: usize>(
+        &self,
+        st: Stored,
+        g: usize,
+        t: f64,
+        f: &Frame<1>,
+        b: &[f64],
+    ) -> f32 {
         let (r0, count) = self.records(g);
-        let vals = &ev.res.vals[..];
-        let mut c = Collapsed {
-            sh: [[0.0; SMALL_SH]; 2],
-            amps: [[[0.0; 4]; LINE_LOBES]; 2],
-            p: [0; 2],
-        };
+        let mut sh = [[0.0f64; NSH]; 2];
+        let mut amps = [NO_AMPS; 2];
         for slot in 0..count {
             let k = &self.recs[r0 + slot];
-            c.p[slot] = k.p;
-            collapse_sh(vals, k, b, &mut c.sh[slot]);
-            collapse_amps(vals, k, b, &mut c.amps[slot]);
+            collapse_sh(&st.res.vals, k, b, &mut sh[slot]);
+            collapse_amps(&st.res.vals, k, b, &mut amps[slot]);
         }
-        c
+        let p = |slot: usize| (self.recs[r0 + slot.min(count - 1)].p as usize).min(NSH);
+        let sh = [&sh[0][..p(0)], &sh[1][..if count == 2 { p(1) } else { 0 }]];
+        let q = self.query(g, f, [t]);
+        let mut y = [Lanes::splat(0.0); NSH];
+        let s = self.sh_parts(g, q.wo, sh, &mut y);
+        let v = self.value(st.res, g, s, [&amps[0], &amps[1]], &q);
+        v.max(Lanes::splat(0.0)).0[0] as f32
     }
 
-    /// `out[i]` = ρ(wi(i), wo(i), λ) for i < n at the one wavelength whose basis values are `b`
-    /// (NaN: a wavelength that is not finite), each the same bits whatever the batch or the CPU.
-    pub(crate) fn batch(
+    /// Every record collapsed at basis values `b` (not NaN) into one table, if the file's
+    /// records fit [`COLLAPSED_VALUES`].
+    pub(crate) fn collapse_all(&self, res: &Resident, b: &[f64]) -> Option<Collapsed> {
+        if self.recs.len() * COLLAPSED_STRIDE > COLLAPSED_VALUES {
+            return None;
+        }
+        let mut c = Collapsed {
+            values: [0.0; COLLAPSED_VALUES],
+        };
+        for (k, at) in self
+            .recs
+            .iter()
+            .zip(c.values.chunks_exact_mut(COLLAPSED_STRIDE))
+        {
+            let (amps, sh) = at.split_at_mut(AMPS);
+            let amps: &mut [f64; AMPS] = amps.try_into().ok()?;
+            collapse_amps(&res.vals, k, b, amps);
+            collapse_sh(&res.vals, k, b, sh);
+        }
+        Some(c)
+    }
+
+    /// [`Kernel::one`] from records collapsed beforehand ([`Kernel::collapse_all`] at the same
+    /// wavelength): the same operations on the same values, so the same bits.
+    #[inline]
+    pub(crate) fn one_collapsed(
         &self,
-        ev: &Evaluator,
-        wi: &impl Fn(usize) -> [f32; 3],
-        wo: &impl Fn(usize) -> [f32; 3],
-        n: usize,
-        b: &[f64],
-        out: &mut [f32],
-    ) {
-        if b.first().is_none_or(|v| v.is_nan()) {
-            out[..n].fill(0.0);
-            return;
+        st: Stored,
+        wi: [f32; 3],
+        wo: [f32; 3],
+        c: &Collapsed,
+    ) -> Option<f32> {
+        let f = frame::<1>([wi], [wo]);
+        if !f.valid.0[0] {
+            return Some(0.0);
         }
-        #[cfg(target_arch = "x86_64")]
-        match self.width {
-            // SAFETY: the CPU has these features (`Width::detect`).
-            Width::Avx512 => unsafe { self.batch_avx512(ev, wi, wo, n, b, out) },
-            Width::Avx2 => unsafe { self.batch_avx2(ev, wi, wo, n, b, out) },
-            // Without AVX2, pair by pair: four lanes in SSE2 pairs gained little over one
-            // and compiling them a third time cost a minute of every release build.
-            Width::Base => {
-                for (i, o) in out[..n].iter_mut().enumerate() {
-                    *o = self.one(ev, wi(i), wo(i), b);
-                }
-            }
+        let (g, t) = self.group_of(st.axis, f.theta.0[0]);
+        let group = &self.groups[g];
+        if !group.fast {
+            return None;
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        self.batch_lanes::<4>(ev, wi, wo, n, b, out);
-    }
-
-    /// [`Kernel::batch_lanes`] compiled for AVX2, four lanes: the same operations, the same bits.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn batch_avx2(
-        &self,
-        ev: &Evaluator,
-        wi: &impl Fn(usize) -> [f32; 3],
-        wo: &impl Fn(usize) -> [f32; 3],
-        n: usize,
-        b: &[f64],
-        out: &mut [f32],
-    ) {
-        self.batch_lanes::<4>(ev, wi, wo, n, b, out)
-    }
-
-    /// [`Kernel::batch_lanes`] compiled for AVX-512, eight lanes: the same operations, the same
-    /// bits.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
-    unsafe fn batch_avx512(
-        &self,
-        ev: &Evaluator,
-        wi: &impl Fn(usize) -> [f32; 3],
-        wo: &impl Fn(usize) -> [f32; 3],
-        n: usize,
-        b: &[f64],
-        out: &mut [f32],
-    ) {
-        self.batch_lanes::<8>(ev, wi, wo, n, b, out)
-    }
-
-    /// The batch in blocks: each block's pairs framed W at a time, sorted by group, then each
-    /// group's pairs evaluated W at a time with its records collapsed once.
-    #[inline(always)]
-    fn batch_lanes<const W: usize>(
-        &self,
-        ev: &Evaluator,
-        wi: &impl Fn(usize) -> [f32; 3],
-        wo: &impl Fn(usize) -> [f32; 3],
-        n: usize,
-        b: &[f64],
-        out: &mut [f32],
-    ) {
-        let zero = Lanes([0.0]);
-        let mut frames = [Frame::<1> {
-            valid: Mask([false]),
-            r: zero,
-            z: zero,
-            theta: zero,
-            wo: [zero; 3],
-        }; BLOCK];
-        // Per position in the block: its group and t; then the positions ordered by group.
-        let mut groups = [0u32; BLOCK];
-        let mut ts = [0.0f64; BLOCK];
-        let mut order = [0u16; BLOCK];
-        let mut live_at = [0u16; BLOCK];
-        // Pairs per group, then where each group's pairs start in `order` (a counting sort:
-        // a comparison sort cost a quarter of the batch).
-        let counted = self.groups.len() <= COUNTED_GROUPS;
-        let mut first = [0u16; COUNTED_GROUPS + 1];
-        for start in (0..n).step_by(BLOCK) {
-            let len = BLOCK.min(n - start);
-            for c in (0..len).step_by(W) {
-                // A short last chunk repeats its last pair.
-                let at = |j: usize| start + (c + j).min(len - 1);
-                let f = frame::<W>(
-                    std::array::from_fn(|j| wi(at(j))),
-                    std::array::from_fn(|j| wo(at(j))),
-                );
-                for j in 0..W.min(len - c) {
-                    frames[c + j] = f.lane(j);
-                }
-            }
-            let mut live = 0;
-            let ng = self.groups.len();
-            if counted {
-                first[..ng + 1].fill(0);
-            }
-            for (p, f) in frames[..len].iter().enumerate() {
-                if !f.valid.0[0] {
-                    out[start + p] = 0.0;
-                    continue;
-                }
-                let (g, t) = self.group_of(ev, f.theta.0[0]);
-                groups[p] = g as u32;
-                ts[p] = t;
-                live_at[live] = p as u16;
-                live += 1;
-                if counted {
-                    first[g + 1] += 1;
-                }
-            }
-            let order = &mut order[..live];
-            if counted {
-                for g in 0..ng {
-                    first[g + 1] += first[g];
-                }
-                for &p in &live_at[..live] {
-                    let g = groups[p as usize] as usize;
-                    order[first[g] as usize] = p;
-                    first[g] += 1;
-                }
-            } else {
-                order.copy_from_slice(&live_at[..live]);
-                order.sort_unstable_by_key(|&p| (groups[p as usize], p));
-            }
-            let mut i = 0;
-            while i < order.len() {
-                let g = groups[order[i] as usize];
-                let mut end = i + 1;
-                while end < order.len() && groups[order[end] as usize] == g {
-                    end += 1;
-                }
-                let members = &order[i..end];
-                i = end;
-                let g = g as usize;
-                let run = Run {
-                    g,
-                    b,
-                    members,
-                    frames: &frames[..len],
-                    ts: &ts[..len],
-                };
-                let out = &mut out[start..start + len];
-                if !self.groups[g].fast {
-                    for &p in members {
-                        let at = start + p as usize;
-                        out[p as usize] = fallback(ev, wi(at), wo(at), b);
-                    }
-                    continue;
-                }
-                self.run::<W>(ev, run, out);
-            }
-        }
-    }
-
-    /// One group's pairs of a block, W lanes at a time, its records collapsed once.
-    #[inline(always)]
-    fn run<const W: usize>(&self, ev: &Evaluator, run: Run, out: &mut [f32]) {
-        let c = self.collapse(ev, run.g, run.b);
-        // The SH values of each W pairs, overwritten up to the level's count every time.
-        let mut y = [Lanes::splat(0.0); SMALL_SH];
-        for chunk in run.members.chunks(W) {
-            let lane = |j: usize| chunk[j.min(chunk.len() - 1)] as usize;
-            let f = Frame::gather::<W>(std::array::from_fn(|j| &run.frames[lane(j)]));
-            let q = self.query(ev, run.g, &f, std::array::from_fn(|j| run.ts[lane(j)]));
-            let s = self.sh_parts(run.g, q.wo, &c, &mut y);
-            let v = self.value(ev, run.g, s, &c.amps, &q).max(Lanes::splat(0.0));
-            for (j, &at) in chunk.iter().enumerate() {
-                out[at as usize] = v.0[j] as f32;
-            }
-        }
+        let (r0, count) = self.records(g);
+        let rec = |slot: usize| -> (&[f64; AMPS], &[f64]) {
+            let at = &c.values[(r0 + slot) * COLLAPSED_STRIDE..(r0 + slot + 1) * COLLAPSED_STRIDE];
+            let (amps, sh) = at.split_at(AMPS);
+            let p = self.recs[r0 + slot].p as usize;
+            (amps.try_into().unwrap_or(&NO_AMPS), &sh[..p.min(sh.len())])
+        };
+        let (a0, s0) = rec(0);
+        let (a1, s1) = if count == 2 {
+            rec(1)
+        } else {
+            (&NO_AMPS, &[][..])
+        };
+        let q = self.query(g, &f, [t]);
+        let level = group.level as usize;
+        let v = if level <= 2 {
+            let mut y = [Lanes::splat(0.0); { sh_count(2) }];
+            let s = self.sh_parts(g, q.wo, [s0, s1], &mut y);
+            self.value(st.res, g, s, [a0, a1], &q)
+        } else {
+            let mut y = [Lanes::splat(0.0); KERNEL_SH];
+            let s = self.sh_parts(g, q.wo, [s0, s1], &mut y);
+            self.value(st.res, g, s, [a0, a1], &q)
+        };
+        Some(v.max(Lanes::splat(0.0)).0[0] as f32)
     }
 
     /// The group of a query at θ (degrees) and the weight t of its second record (blend
     /// (1 − t, t); 0 for a record alone), as `Lattice::blend` forms them.
     #[inline(always)]
-    fn group_of(&self, ev: &Evaluator, theta: f64) -> (usize, f64) {
-        let Lattice::Theta(axis) = &ev.lattice else {
-            return (0, 0.0);
-        };
+    fn group_of(&self, axis: &Axis, theta: f64) -> (usize, f64) {
         let (i, t) = axis.bracket(theta);
         let n = self.recs.len();
         if n == 1 || t <= 0.0 {
@@ -491,24 +398,23 @@ impl Kernel {
         &self,
         g: usize,
         wo: [Lanes<N>; 3],
-        c: &Collapsed,
-        y: &mut [Lanes<N>; SMALL_SH],
+        sh: [&[f64]; 2],
+        y: &mut [Lanes<N>],
     ) -> [Lanes<N>; 2] {
         let (level, count) = (self.groups[g].level as usize, self.records(g).1);
-        let (a, p) = (&c.sh, c.p);
         if level == 0 {
-            return [0, 1].map(|slot| Lanes::splat(a[slot][0] * self.y0));
+            return sh.map(|a| Lanes::splat(a.first().copied().unwrap_or(0.0) * self.y0));
         }
-        let level = level.min(crate::model::sh::level_of(SMALL_SH));
+        let level = level.min(crate::model::sh::level_of(y.len()));
         ShBasis::shared().eval_lanes(level, wo, |j, v| {
             if let Some(y) = y.get_mut(j) {
                 *y = v;
             }
         });
         let mut s = [Lanes::splat(0.0); 2];
-        for (slot, s) in s.iter_mut().enumerate().take(count) {
-            let n = (p[slot] as usize).min(SMALL_SH);
-            let (a, y) = (&a[slot][..n], &y[..n]);
+        for (s, a) in s.iter_mut().zip(sh).take(count) {
+            let n = a.len().min(y.len());
+            let (a, y) = (&a[..n], &y[..n]);
             let mut acc = [Lanes::splat(0.0); 4];
             let (a4, y4) = (a.chunks_exact(4), y.chunks_exact(4));
             let (at, yt) = (a4.remainder(), y4.remainder());
@@ -527,17 +433,11 @@ impl Kernel {
 
     /// Group g's query lanes from their frames and second-record weights `t`.
     #[inline(always)]
-    fn query<const N: usize>(
-        &self,
-        ev: &Evaluator,
-        g: usize,
-        f: &Frame<N>,
-        t: [f64; N],
-    ) -> Query<N> {
+    fn query<const N: usize>(&self, g: usize, f: &Frame<N>, t: [f64; N]) -> Query<N> {
         let t = Lanes(t);
         // The incidence the records are evaluated at: θ clamped to the stored range, whose
-        // ends' (θ, sin θ, cos θ) the evaluator holds.
-        let [(first, s0, c0), (last, s1, c1)] = ev.theta_ends;
+        // ends' (θ, sin θ, cos θ) the kernel holds.
+        let [(first, s0, c0), (last, s1, c1)] = self.ends;
         let below = f.theta.lt(Lanes::splat(first));
         let above = f.theta.gt(Lanes::splat(last));
         let pick = |lo: f64, hi: f64, own: Lanes<N>| {
@@ -561,15 +461,14 @@ impl Kernel {
     #[inline(always)]
     fn value<const N: usize>(
         &self,
-        ev: &Evaluator,
+        res: &Resident,
         g: usize,
         mut s: [Lanes<N>; 2],
-        amps: &[Amps; 2],
+        amps: [&[f64; AMPS]; 2],
         q: &Query<N>,
     ) -> Lanes<N> {
         let group = &self.groups[g];
         let (r0, count) = self.records(g);
-        let res = &ev.res;
         let mut geometry: Option<Geometry<N>> = None;
         for op in group.ops {
             let (first, slots, li, kind) = match op {
@@ -599,7 +498,7 @@ impl Kernel {
                 };
                 let v = cosine_power(n, q.wo, peak);
                 for slot in first..first + slots {
-                    s[slot] = s[slot] + amps[slot][li][0] * v;
+                    s[slot] = s[slot] + amps[slot][4 * li] * v;
                 }
                 continue;
             }
@@ -625,7 +524,7 @@ impl Kernel {
             };
             let v = g.variants(b, c, a, kind == LobeKind::MicrofacetSin2);
             for slot in first..first + slots {
-                let amp = &amps[slot][li];
+                let amp = &amps[slot][4 * li..4 * li + 4];
                 let sum = amp[0] * v[0] + amp[1] * v[1] + amp[2] * v[2] + amp[3] * v[3];
                 s[slot] = s[slot] + sum;
             }
@@ -638,107 +537,21 @@ impl Kernel {
     }
 }
 
-impl Width {
-    fn detect() -> Self {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f")
-                && std::arch::is_x86_feature_detected!("avx512dq")
-                && std::arch::is_x86_feature_detected!("avx512vl")
-            {
-                return Width::Avx512;
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                return Width::Avx2;
-            }
-        }
-        Width::Base
-    }
-}
-
-/// One group's pairs in a block (positions in the block, ordered) with the block's frames and
-/// second-record weights by position.
-struct Run<'a> {
-    g: usize,
-    b: &'a [f64],
-    members: &'a [u16],
-    frames: &'a [Frame<1>],
-    ts: &'a [f64],
-}
-
-/// Record k's SH coefficients at basis values `b` into `a` (as many as fit):
-/// ã_j = Σ_k B_k·a_kj, k in order from 0.
-#[inline(always)]
-fn collapse_sh(vals: &[f32], k: &KRec, b: &[f64], a: &mut [f64]) {
-    let (stride, t) = (k.p as usize, (k.terms as usize).min(b.len()));
-    let p = stride.min(a.len());
-    let a = &mut a[..p];
-    a.fill(0.0);
-    for (i, &bk) in b[..t].iter().enumerate() {
-        let at = k.sh as usize + i * stride;
-        for (x, &v) in a.iter_mut().zip(&vals[at..at + p]) {
-            *x += bk * v as f64;
-        }
-    }
-}
-
-/// Record k's lobe amplitudes at basis values `b`, per lobe position its variants', each
-/// Σ_k B_k·v_k in order from k = 0.
-#[inline(always)]
-fn collapse_amps(vals: &[f32], k: &KRec, b: &[f64], amps: &mut Amps) {
-    let t = (k.terms as usize).min(b.len());
-    for (li, amps) in amps.iter_mut().enumerate() {
-        let nv = (k.nv[li] as usize).min(4);
-        let at = k.amp[li] as usize;
-        for (v, row) in amps[..nv]
-            .iter_mut()
-            .zip(vals[at..at + nv * t].chunks_exact(t.max(1)))
-        {
-            let mut d = 0.0;
-            for (&bk, &x) in b.iter().zip(row) {
-                d += bk * x as f64;
-            }
-            *v = d;
-        }
-    }
-}
-
-/// A pair of a group the kernel leaves to the line path.
-fn fallback(ev: &Evaluator, wi: [f32; 3], wo: [f32; 3], b: &[f64]) -> f32 {
-    match (upper(wi), upper(wo)) {
-        (Some(a), Some(o)) => ev.line_value(a, o, b).max(0.0) as f32,
-        _ => 0.0,
-    }
-}
-
-impl Frame<1> {
-    /// Lanes gathered from one-lane frames.
-    #[inline(always)]
-    fn gather<const N: usize>(f: [&Frame<1>; N]) -> Frame<N> {
-        let l = |g: fn(&Frame<1>) -> Lanes<1>| Lanes(std::array::from_fn(|j| g(f[j]).0[0]));
-        Frame {
-            valid: Mask(std::array::from_fn(|j| f[j].valid.0[0])),
-            r: l(|f| f.r),
-            z: l(|f| f.z),
-            theta: l(|f| f.theta),
-            wo: [l(|f| f.wo[0]), l(|f| f.wo[1]), l(|f| f.wo[2])],
-        }
-    }
-}
-
-impl<const N: usize> Frame<N> {
-    /// Lane j alone.
-    #[inline(always)]
-    fn lane(&self, j: usize) -> Frame<1> {
-        let l = |v: Lanes<N>| Lanes([v.0[j]]);
-        Frame {
-            valid: Mask([self.valid.0[j]]),
-            r: l(self.r),
-            z: l(self.z),
-            theta: l(self.theta),
-            wo: self.wo.map(l),
-        }
-    }
+/// Whether a file's records fit the kernel (and the θ-line path): SH level ≤ 6, at most
+/// [`KERNEL_TERMS`] terms, and per record at most [`LINE_LOBES`] lobes, each a cosine power or a
+/// microfacet lobe (kinds 2–4).
+pub(crate) fn takes(material: &Material) -> bool {
+    sh_count(material.sh_level) <= KERNEL_SH
+        && material.spectral.terms <= KERNEL_TERMS
+        && material.records.iter().all(|r| {
+            r.lobes.len() <= LINE_LOBES
+                && r.lobes.iter().all(|l| {
+                    matches!(
+                        l.kind,
+                        LobeKind::CosinePower | LobeKind::Microfacet | LobeKind::MicrofacetSin2
+                    )
+                })
+        })
 }
 
 #[cfg(test)]

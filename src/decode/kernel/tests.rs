@@ -1,6 +1,7 @@
 //! The batch kernel's lanes against its one-pair computation.
 
 use super::*;
+use crate::decode::evaluator::Evaluator;
 use crate::read_material;
 use crate::Limits;
 
@@ -46,18 +47,49 @@ fn wide_batches_are_the_one_pair_computation() {
     for path in paths {
         let material = read_material(&std::fs::read(&path).unwrap(), &Limits::default()).unwrap();
         let ev = Evaluator::new(&material);
-        let Some(kernel) = &ev.kernel else { continue };
+        let Some((kernel, st)) = ev.kernel_input() else {
+            continue;
+        };
         taken += 1;
         let (lo, hi) = (material.wavelengths[0] as f64, 550.0);
         for l in [lo, hi, 0.5 * (lo + hi)] {
             let mut b = vec![0.0; ev.res.spectrum.terms()];
             ev.res.spectrum.basis(l, &mut b);
+            let fallback = |i: usize| ev.line_fallback(wi(i), wo(i), &b);
             let one: Vec<u32> = (0..pairs.len())
-                .map(|i| kernel.one(&ev, wi(i), wo(i), &b).to_bits())
+                .map(|i| {
+                    kernel
+                        .one(st, wi(i), wo(i), &b)
+                        .unwrap_or_else(|| fallback(i))
+                        .to_bits()
+                })
                 .collect();
+            let all = lanes_batch::Pairs {
+                wi,
+                wo,
+                n: pairs.len(),
+                fallback,
+            };
             let (mut four, mut eight) = (vec![0.0; pairs.len()], vec![0.0; pairs.len()]);
-            kernel.batch_lanes::<4>(&ev, &wi, &wo, pairs.len(), &b, &mut four);
-            kernel.batch_lanes::<8>(&ev, &wi, &wo, pairs.len(), &b, &mut eight);
+            kernel.batch_lanes::<4, _, _, _>(st, &all, &b, &mut four);
+            kernel.batch_lanes::<8, _, _, _>(st, &all, &b, &mut eight);
+            // Every record collapsed beforehand (`Decoder::at`): the same bits again.
+            if let Some(c) = kernel.collapse_all(st.res, &b) {
+                let at: Vec<u32> = (0..pairs.len())
+                    .map(|i| {
+                        kernel
+                            .one_collapsed(st, wi(i), wo(i), &c)
+                            .unwrap_or_else(|| fallback(i))
+                            .to_bits()
+                    })
+                    .collect();
+                assert_eq!(
+                    at,
+                    one,
+                    "{}: collapsed beforehand at {l} nm",
+                    path.display()
+                );
+            }
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&four), one, "{}: four lanes at {l} nm", path.display());
             assert_eq!(
