@@ -42,7 +42,7 @@ pub(crate) struct Evaluator {
     /// each record alone and, on a θ line, for each pair of neighbours (record i with i + 1).
     pub(crate) alone: Vec<BlendInfo>,
     pub(crate) pairs: Vec<BlendInfo>,
-    /// Whether one-wavelength queries take the line path (`super::line`).
+    /// Whether one-wavelength queries take the line path (`super::theta_line`).
     on_line: bool,
     /// The one-wavelength kernel of a file on the line path (`super::kernel`).
     pub(crate) kernel: Option<Kernel>,
@@ -453,7 +453,7 @@ impl Evaluator {
         }
     }
 
-    /// Whether one-wavelength queries take the line path (`super::line`).
+    /// Whether one-wavelength queries take the line path (`super::theta_line`).
     pub(crate) fn on_line(&self) -> bool {
         self.on_line
     }

@@ -11,15 +11,15 @@ pub mod color;
 pub mod decoder;
 mod draw;
 mod evaluator;
-mod general;
+mod general_coefficients;
+mod general_one_wavelength;
 mod kernel;
 mod lattice;
-mod line;
-mod one;
 mod proposal;
 mod resident;
 pub mod sampling;
 mod sums;
+mod theta_line;
 mod warp2d;
 mod warped;
 

@@ -5,7 +5,7 @@ use crate::encode::basis::{
     derive_basis, rank_meeting, rounded_table, series_limit, singular_vectors, spectral_space,
     AUTO_RANK_MAX,
 };
-use crate::encode::fit::factor::{FactorOptions, INNER_FOLD_SALT};
+use crate::encode::fit::factor_fit::{FactorOptions, INNER_FOLD_SALT};
 use crate::encode::fit::{rel, stored_error, CriticalAngle, FitContext, PeakMode};
 use crate::encode::fit::{JointOptions, LobeFamily};
 use crate::encode::metrics::ErrorSums;
@@ -122,7 +122,7 @@ pub fn encode_with_progress(
 ) -> Result<Encoded> {
     match opts.model {
         ModelChoice::Records => encode_records_with_progress(set, opts, progress),
-        ModelChoice::Shared => crate::encode::shared::encode_shared(set, opts),
+        ModelChoice::Shared => crate::encode::factor_model::encode_shared(set, opts),
         ModelChoice::Auto => encode_auto(set, opts, progress),
     }
 }
@@ -213,7 +213,7 @@ fn encode_auto(
     ];
     // The factor model is a format 1.1 feature: not a candidate under --format 1.0.
     if set.is_isotropic() && opts.format_minor >= crate::format::VERSION_MINOR_FACTOR {
-        let shared = crate::encode::shared::encode_shared(set, opts)?;
+        let shared = crate::encode::factor_model::encode_shared(set, opts)?;
         if let Some(h) = shared.held_out {
             candidates.push(("the factor model shared by every incidence", shared, h));
         }

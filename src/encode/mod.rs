@@ -5,16 +5,19 @@
 
 pub mod basis;
 pub mod encoder;
+pub mod factor_model;
 pub mod fit;
 pub mod info;
 pub mod metrics;
 pub mod options;
 pub mod samples;
 pub mod settings;
-pub mod shared;
 pub mod subset;
 pub mod validate;
 pub mod warped;
 
 pub use encoder::{encode, EncodeOptions, Encoded, ModelChoice};
+/// The factor-model encoder's former path (`encode::shared`), kept for code that names it.
+#[doc(hidden)]
+pub use factor_model as shared;
 pub use samples::{IncidentSamples, SampleSet};

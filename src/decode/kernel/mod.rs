@@ -1,5 +1,5 @@
 //! The one-wavelength batch kernel: how [`super::batch`] answers many direction pairs at one
-//! wavelength on a θ line (the files [`super::line`] covers: isotropic, no factor model, at
+//! wavelength on a θ line (the files [`super::theta_line`] covers: isotropic, no factor model, at
 //! most two lobes of kinds 2–4 per record, SH level ≤ 6, ≤ 16 terms).
 //!
 //! A query blends one record or two neighbours, so the stored incidences split the queries into

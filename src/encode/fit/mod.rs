@@ -8,13 +8,16 @@
 //! `spec/EVALUATION.md`, section "How the encoder fits (informative)".
 
 mod context;
-pub mod factor;
+pub mod factor_fit;
 pub mod joint;
 mod options;
 mod paper;
 mod peak;
 
 pub use context::{lstsq, rel, spectral_projection, stored_error, FitContext, Fitted};
+/// The factor model's fitter's former path (`fit::factor`), kept for code that names it.
+#[doc(hidden)]
+pub use factor_fit as factor;
 pub use options::{CriticalAngle, JointOptions, LobeFamily, PeakMode};
 pub use peak::find_peak_direction;
 

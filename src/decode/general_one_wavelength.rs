@@ -2,7 +2,7 @@
 //! lobes, lobes not shared by the blended records) with the terms summed before the records,
 //! Σ_r w_r·Σ_k B_k·(…), so that no coefficient vector is formed ("Rounding" in
 //! `spec/EVALUATION.md`). `eval` and the batch take it for one wavelength when the file is not on
-//! the θ-line path (`super::line`) and has no factor model.
+//! the θ-line path (`super::theta_line`) and has no factor model.
 
 use super::blend::{Incident, LobeShape, Shapes};
 use super::evaluator::{Evaluator, SMALL_SH, SMALL_TERMS};

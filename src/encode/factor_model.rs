@@ -3,7 +3,7 @@
 //! measured incidence (the format's records carry the incidences, their sample positions and
 //! their errors).
 
-use crate::encode::fit::factor::{fit_factor, score, FactorOptions};
+use crate::encode::fit::factor_fit::{fit_factor, score, FactorOptions};
 use crate::encode::fit::stored_error;
 use crate::encode::metrics::{log_epsilon, ErrorSums};
 use crate::encode::options::{
