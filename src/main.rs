@@ -66,18 +66,27 @@ sbrdf decode m.sbrdf -o back.astm --astm   (ASTM E1392 text, with the source fil
     Decode(decode::DecodeArgs),
     /// Print the spectrum at one pair of directions as CSV `wavelength_nm,value`.
     #[command(
-        after_help = "Example:\n  sbrdf eval m.sbrdf --incident 15,0 --outgoing 15,180 --wavelengths 450,550\n\n\
-Directions below the horizon (θ > 90) give 0. An incident direction that is not stored is \
-answered by interpolating the neighbouring records' parameters (isotropic files: rotated to \
-φi = 0 first); outside the stored θi range, the nearest stored θi is used."
+        after_help = "Directions below the horizon (θ > 90) give 0. An incident direction that is not \
+stored is answered by interpolating the neighbouring records' parameters (isotropic files: \
+rotated to φi = 0 first); outside the stored θi range, the nearest stored θi is used.\n\n\
+Example:\n  sbrdf eval m.sbrdf --incident 15,0 --outgoing 15,180 --wavelengths 450,550"
     )]
     Eval(inspect::EvalArgs),
     /// Describe a file: its settings, records and metadata.
+    #[command(after_help = "Examples:\n  sbrdf info m.sbrdf\n  sbrdf info m.sbrdf --json")]
     Info(inspect::InfoArgs),
     /// Check every CRC and the whole structure of a file.
+    #[command(
+        after_help = "Example (exit status 0 when the file is whole):\n  sbrdf verify m.sbrdf"
+    )]
     Verify(inspect::VerifyArgs),
     /// Generate test materials.
-    #[command(subcommand)]
+    #[command(
+        subcommand,
+        after_help = "Examples (each subcommand's --help has more):\n  \
+sbrdf synth phong --diffuse green --specular white --kd 1 --ks 15 --n 15 --incident 15,0 -o phong.csv\n  \
+sbrdf synth ggx --alpha 0.1 --diffuse blue --fresnel yellow --incident 0,0 --incident 45,0 -o ggx.csv"
+    )]
     Synth(synth::SynthCommand),
     /// Draw what a file stores at one incidence: a coefficient over the outgoing hemisphere
     /// (background and peak), beside the original samples, and spectra at chosen directions.
@@ -90,36 +99,40 @@ answered by interpolating the neighbouring records' parameters (isotropic files:
     /// Derive a smaller file from an existing one (no samples needed): fewer incidences,
     /// wavelengths, spectral terms or SH functions, or f16 storage.
     #[command(
-        after_help = "Example (a scene rendering 450–650 nm with lights below 60°):\n  \
-sbrdf subset m.sbrdf -o scene.sbrdf --wavelengths 450:650 --incident-max 60 --precision f16\n\n\
-Every cut truncates (incidences, wavelengths of a data-derived basis, spectral terms, SH \
+        after_help = "Every cut truncates (incidences, wavelengths of a data-derived basis, spectral terms, SH \
 functions) or rounds (f16); an analytic basis cut to fewer wavelengths is re-tabulated at the kept \
 ones (exact there, linear between). Nothing is re-fitted: there are no samples. Each record's \
 stored error becomes an upper bound on its new error, from its recorded error and the change the \
 cuts made (measured against the original at its stored sample positions). Re-encoding from the samples with \
-`encode --wavelengths --incident-max` gives the best file of a size; subset gives one at once."
+`encode --wavelengths --incident-max` gives the best file of a size; subset gives one at once.\n\n\
+Example (a scene rendering 450–650 nm with lights below 60°):\n  \
+sbrdf subset m.sbrdf -o scene.sbrdf --wavelengths 450:650 --incident-max 60 --precision f16"
     )]
     Subset(subset::SubsetArgs),
     /// Encode the input over a sweep of settings and report size, error and speed of each.
-    #[command(after_help = "Example:\n  \
-sbrdf tradeoff material.csv --csv report.csv --plot report.svg --quick\n\n\
-Each row's encode_options column holds the `sbrdf encode` options that reproduce it. Errors are \
-measured against the input samples as `decode --like` does; eval times are the best of five runs \
-of 4096 random queries on this machine. pareto = 1 marks the rows no other row beats in both size \
-and error.")]
+    #[command(
+        after_help = "Each row's encode_options column holds the `sbrdf encode` options that \
+reproduce it. Errors are measured against the input samples as `decode --like` does; eval times \
+are the best of five runs of 4096 random queries on this machine. pareto = 1 marks the rows no \
+other row beats in both size and error.\n\n\
+Example:\n  \
+sbrdf tradeoff material.csv --csv report.csv --plot report.svg --quick"
+    )]
     Tradeoff(tradeoff::TradeoffArgs),
     /// Measure how far to trust a file between the measurements: the fit error, the k-fold
     /// held-out error and (optionally) the error at each incidence left out, rel and log.
-    #[command(after_help = "Examples:\n  \
-sbrdf validate acryl_blue.astm --leave-incidence-out\n  \
-sbrdf validate ptfe.csv --folds 10 --max-error 1%\n\n\
-Takes the encode options; encodes the input once whole, once per fold and once per incidence \
+    #[command(
+        after_help = "Takes the encode options; encodes the input once whole, once per fold and once per incidence \
 left out. fit: decoded at the samples it was fitted to. k-fold: each incidence's outgoing samples \
 in a fixed random order, every k-th held out in turn from every incidence at once, predictions \
 pooled. left out: encoded without that incidence, decoded at all of its samples. rel = \
 sqrt(Σ(ρ̂ − ρ)²/Σρ²): predicting 0 scores 1, above 1 a model invents energy. log = RMS of \
 ln((ρ̂ + ε)/(ρ + ε)), ε = 1% of the median spectral mean: every value weighs alike, where rel is \
-dominated by the brightest samples.")]
+dominated by the brightest samples.\n\n\
+Examples:\n  \
+sbrdf validate material.csv --leave-incidence-out\n  \
+sbrdf validate ptfe.csv --folds 10 --max-error 1%"
+    )]
     Validate(validate::ValidateArgs),
 }
 

@@ -25,7 +25,7 @@ Coefficient names: a0, a1, b1, a2, … for the paper's Fourier basis (K = 0, 1, 
 for the others.\n\n\
 Examples:\n  \
 sbrdf plot phong.sbrdf --incident 15,0 -o a0.png\n  \
-sbrdf plot phong.sbrdf --reference phong.csv --incident 15,0 --coefficient 2 -o b1.svg\n  \
+sbrdf plot phong.sbrdf --reference phong.csv --incident 15,0 --coefficient 1 -o b1.svg\n  \
 sbrdf plot ggx.sbrdf --reference slices --incident 30,0 -o ggx.png --outgoing 30,180 --outgoing 60,180"
 )]
 pub struct PlotArgs {
