@@ -4,6 +4,7 @@
 //! which the repository does not ship) is skipped and listed.
 
 mod common;
+use common::examples::{copy, example_folder, inputs};
 use common::sbrdf;
 use std::path::{Path, PathBuf};
 
@@ -72,37 +73,6 @@ fn arguments(example: &str) -> Vec<String> {
     text.split_whitespace().skip(1).map(String::from).collect()
 }
 
-/// The files an example reads: arguments naming a file by its extension (or the `slices`
-/// folder) that are not the value of an output option.
-fn inputs(args: &[String]) -> Vec<String> {
-    let outputs = ["-o", "--csv", "--plot", "--report"];
-    let mut v = Vec::new();
-    for (i, a) in args.iter().enumerate() {
-        if i > 0 && outputs.contains(&args[i - 1].as_str()) {
-            continue;
-        }
-        let file = [".csv", ".sbrdf", ".astm", ".bsdf", ".exr"]
-            .iter()
-            .any(|e| a.ends_with(e));
-        if file || (a == "slices" && i > 0 && args[i - 1] == "--reference") {
-            v.push(a.clone());
-        }
-    }
-    v
-}
-
-fn copy(from: &Path, to: &Path) {
-    if from.is_dir() {
-        std::fs::create_dir_all(to).unwrap();
-        for e in std::fs::read_dir(from).unwrap() {
-            let e = e.unwrap().path();
-            std::fs::copy(&e, to.join(e.file_name().unwrap())).unwrap();
-        }
-    } else {
-        std::fs::copy(from, to).unwrap();
-    }
-}
-
 #[test]
 fn every_help_ends_with_examples_that_run() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
@@ -130,50 +100,9 @@ fn every_help_ends_with_examples_that_run() {
         ));
     }
     // The folder the examples run in: the files they name that no example makes.
-    let dir = tempfile::tempdir().unwrap();
+    let dir = example_folder(&root);
     let d = dir.path();
-    let data = root.join("tests/data");
-    // The Cornell measurement, every sixth sample: the same file kind and incidences, in a
-    // fraction of the time (`validate --leave-incidence-out` encodes it nine times).
-    let astm = std::fs::read_to_string(data.join("cornell/acryl_blue.astm")).unwrap();
-    let (mut head, mut rows) = (Vec::new(), Vec::new());
-    for line in astm.lines() {
-        if line.starts_with(|c: char| c.is_ascii_digit() || c == '-') {
-            rows.push(line);
-        } else {
-            head.push(line);
-        }
-    }
-    let kept: Vec<&str> = rows.iter().step_by(6).copied().collect();
-    let mut text = String::new();
-    for line in head {
-        match line.strip_prefix("NUM_POINTS ") {
-            Some(_) => text += &format!("NUM_POINTS {}\n", kept.len()),
-            None => text += &format!("{line}\n"),
-        }
-    }
-    for row in kept {
-        text += &format!("{row}\n");
-    }
-    std::fs::write(d.join("acryl_blue.astm"), text).unwrap();
-    copy(
-        &data.join("rgl/satin_rosaline_rgb.bsdf"),
-        &d.join("satin_rosaline_rgb.bsdf"),
-    );
-    copy(&data.join("nist_ptfe_fr11.csv"), &d.join("ptfe.csv"));
-    copy(
-        &root.join("samples/golden/phong_3inc.csv"),
-        &d.join("material.csv"),
-    );
-    copy(
-        &root.join("samples/golden/phong_3inc.csv"),
-        &d.join("ti15.csv"),
-    );
-    copy(
-        &root.join("samples/golden/phong_3inc_default.sbrdf"),
-        &d.join("m.sbrdf"),
-    );
-    copy(&root.join("samples/ggx_slices.sbrdf"), &d.join("ggx.sbrdf"));
+    // `plot --reference slices`: the EXR slices `ggx.sbrdf` was encoded from.
     copy(&root.join("samples/ggx_slices"), &d.join("slices"));
     // Examples that make files first (synth, encode), then the rest, each once.
     let mut list: Vec<String> = Vec::new();

@@ -1,6 +1,8 @@
 #![allow(dead_code)]
 //! Shared helpers: the paper's test materials, built from the shipped ColorChecker spectra.
 
+pub mod examples;
+
 use sbrdf::encode::encoder::{encode, EncodeOptions, Encoded};
 use sbrdf::encode::samples::SampleSet;
 use sbrdf::io::synth::{paper_grid, sample_material, Phong, SpectrumTable};
