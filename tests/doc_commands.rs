@@ -4,6 +4,7 @@
 //! commands read what its earlier ones wrote. Lines that are not `sbrdf` commands (`cargo`,
 //! `pip`, `cc`) are left to CI's own steps; a command that reads a file the repository does not
 //! ship (an RGL spectral `.bsdf`) is skipped, and asserted to be the only kind skipped.
+#![cfg(unix)] // `sh`, and `sbrdf` on the PATH through a symlink
 
 mod common;
 use common::examples::{example_folder, inputs};
