@@ -53,57 +53,75 @@ fn the_readme_and_guide_commands_run_as_written() {
         .collect();
     guide.sort();
     pages.extend(guide);
-    let (mut ran, mut skipped) = (0, Vec::new());
-    for page in &pages {
-        let commands = shell_commands(&std::fs::read_to_string(page).unwrap());
-        let commands: Vec<&String> = commands
+    // The pages in parallel (each in its own folder): `validate`, the slow command here, uses
+    // little more than one core.
+    let results: Vec<(usize, Vec<String>)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = pages
             .iter()
-            .filter(|c| c.trim_start().starts_with("sbrdf "))
+            .map(|page| {
+                let (root, path) = (&root, &path);
+                scope.spawn(move || run_page(root, page, path))
+            })
             .collect();
-        if commands.is_empty() {
-            continue;
-        }
-        let dir = example_folder(&root);
-        let d: &Path = dir.path();
-        for c in commands {
-            // The arguments as a shell splits them, up to a comment, globs left unexpanded.
-            let words: Vec<String> = c
-                .replace("\\\n", " ")
-                .split(" #")
-                .next()
-                .unwrap_or("")
-                .split_whitespace()
-                .map(|w| w.trim_matches('"').to_string())
-                .collect();
-            let globbed = |f: &String| f.contains('*');
-            if let Some(missing) = inputs(&words)
-                .into_iter()
-                .find(|f| !globbed(f) && !d.join(f).exists())
-            {
-                skipped.push(format!("{}: {c}  (needs {missing})", page.display()));
-                continue;
-            }
-            let started = std::time::Instant::now();
-            let o = std::process::Command::new("sh")
-                .arg("-c")
-                .arg(c)
-                .env("PATH", &path)
-                .current_dir(d)
-                .output()
-                .unwrap();
-            eprintln!("{:6.1} s  {c}", started.elapsed().as_secs_f64());
-            assert!(
-                o.status.success(),
-                "{}: `{c}` failed:\n{}",
-                page.display(),
-                String::from_utf8_lossy(&o.stderr)
-            );
-            ran += 1;
-        }
-    }
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    let ran: usize = results.iter().map(|r| r.0).sum();
+    let skipped: Vec<String> = results.into_iter().flat_map(|r| r.1).collect();
     assert!(
         skipped.iter().all(|s| s.contains("_spec.bsdf")),
         "commands skipped for want of a file: {skipped:#?}"
     );
     assert!(ran >= 40, "only {ran} commands ran (skipped: {skipped:#?})");
+}
+
+/// Runs a page's `sbrdf` commands in order in a fresh example folder, `sbrdf` found on `path`:
+/// how many ran, and the ones skipped for want of a file.
+fn run_page(root: &Path, page: &Path, path: &str) -> (usize, Vec<String>) {
+    let (mut ran, mut skipped) = (0, Vec::new());
+    let commands = shell_commands(&std::fs::read_to_string(page).unwrap());
+    let commands: Vec<&String> = commands
+        .iter()
+        .filter(|c| c.trim_start().starts_with("sbrdf "))
+        .collect();
+    if commands.is_empty() {
+        return (0, Vec::new());
+    }
+    let dir = example_folder(root);
+    let d: &Path = dir.path();
+    for c in commands {
+        // The arguments as a shell splits them, up to a comment, globs left unexpanded.
+        let words: Vec<String> = c
+            .replace("\\\n", " ")
+            .split(" #")
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .map(|w| w.trim_matches('"').to_string())
+            .collect();
+        let globbed = |f: &String| f.contains('*');
+        if let Some(missing) = inputs(&words)
+            .into_iter()
+            .find(|f| !globbed(f) && !d.join(f).exists())
+        {
+            skipped.push(format!("{}: {c}  (needs {missing})", page.display()));
+            continue;
+        }
+        let started = std::time::Instant::now();
+        let o = std::process::Command::new("sh")
+            .arg("-c")
+            .arg(c)
+            .env("PATH", path)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        eprintln!("{:6.1} s  {c}", started.elapsed().as_secs_f64());
+        assert!(
+            o.status.success(),
+            "{}: `{c}` failed:\n{}",
+            page.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        ran += 1;
+    }
+    (ran, skipped)
 }

@@ -5,8 +5,8 @@
 use super::blend::{Incident, LobeShape, Shapes};
 use super::evaluator::{Evaluator, SMALL_SH, SMALL_TERMS};
 use super::sums::dot_f32;
-use crate::model::angles::{angle_between, dot};
-use crate::model::lobes::MicrofacetGeometry;
+use crate::model::angles::angle_between;
+use crate::model::lobes::{cosine_power, MicrofacetGeometry};
 use crate::model::material::{LobeKind, MAX_TERMS};
 use crate::model::sh::{sh_count, ShBasis, MAX_SH_LEVEL};
 
@@ -134,18 +134,7 @@ impl Evaluator {
         geometry: &mut Option<Option<MicrofacetGeometry>>,
     ) -> ([f64; 4], usize) {
         match kind {
-            LobeKind::CosinePower => {
-                // The cosine is capped at 1: rounding can exceed it, and a large exponent would
-                // turn 1 + ε into infinity. g^n as exp(n·ln g): powf's value to ~1e-15 relative,
-                // and a little quicker.
-                let g = dot(wo, shape.peak).min(1.0);
-                let v = if g > 0.0 {
-                    (shape.p[0] * g.ln()).exp()
-                } else {
-                    0.0 // 0ⁿ, without ln 0's division-by-zero trap
-                };
-                ([v, 0.0, 0.0, 0.0], 1)
-            }
+            LobeKind::CosinePower => ([cosine_power(shape.p[0], wo, shape.peak), 0.0, 0.0, 0.0], 1),
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
                 match *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo)) {
                     Some(g) => (

@@ -15,7 +15,7 @@ use super::evaluator::{Evaluator, SMALL_SH};
 use super::lattice::{Blend, Lattice};
 use super::sums::{dot_f32, dot_terms};
 use crate::model::angles::{dot, polar_deg};
-use crate::model::lobes::MicrofacetGeometry;
+use crate::model::lobes::{cosine_power, MicrofacetGeometry};
 use crate::model::material::LobeKind;
 use crate::model::sh::{sh_count, ShBasis};
 
@@ -337,17 +337,6 @@ impl LineSink for Coefficients<'_> {
             }
             *ck += w * sum;
         }
-    }
-}
-
-/// g^n for g = wo·peak capped at 1, as exp(n·ln g); 0 where g ≤ 0 (no ln 0 trap).
-#[inline(always)]
-pub(crate) fn cosine_power(n: f64, wo: [f64; 3], peak: [f64; 3]) -> f64 {
-    let g = dot(wo, peak).min(1.0);
-    if g > 0.0 {
-        (n * g.ln()).exp()
-    } else {
-        0.0
     }
 }
 
