@@ -246,20 +246,37 @@ impl Kernel {
             + self.groups.capacity() * std::mem::size_of::<Group>()
     }
 
+    /// One pair's frame, group and second-record weight t, as both one-pair entry points need
+    /// them; Err(Some(0)) for a pair below the horizon or not normalisable, Err(None) for a
+    /// group the kernel leaves to the θ-line path.
+    #[inline(always)]
+    fn placed(
+        &self,
+        axis: &Axis,
+        wi: [f32; 3],
+        wo: [f32; 3],
+    ) -> Result<(Frame<1>, usize, f64), Option<f32>> {
+        let f = frame::<1>([wi], [wo]);
+        if !f.valid.0[0] {
+            return Err(Some(0.0));
+        }
+        let (g, t) = self.group_of(axis, f.theta.0[0]);
+        if !self.groups[g].fast {
+            return Err(None);
+        }
+        Ok((f, g, t))
+    }
+
     /// ρ for one pair at the wavelength whose basis values are `b` (not NaN), clamped at 0;
     /// None for a pair the kernel leaves to the θ-line path. The lanes of the batch compute
     /// exactly this.
     #[inline]
     pub(crate) fn one(&self, st: Stored, wi: [f32; 3], wo: [f32; 3], b: &[f64]) -> Option<f32> {
-        let f = frame::<1>([wi], [wo]);
-        if !f.valid.0[0] {
-            return Some(0.0);
-        }
-        let (g, t) = self.group_of(st.axis, f.theta.0[0]);
+        let (f, g, t) = match self.placed(st.axis, wi, wo) {
+            Ok(placed) => placed,
+            Err(value) => return value,
+        };
         let group = &self.groups[g];
-        if !group.fast {
-            return None;
-        }
         // The scratch sized for the group's SH level: zeroing level 6's 49 values for a level-0
         // group would cost more than its evaluation.
         Some(match group.level {
@@ -327,15 +344,11 @@ impl Kernel {
         wo: [f32; 3],
         c: &Collapsed,
     ) -> Option<f32> {
-        let f = frame::<1>([wi], [wo]);
-        if !f.valid.0[0] {
-            return Some(0.0);
-        }
-        let (g, t) = self.group_of(st.axis, f.theta.0[0]);
+        let (f, g, t) = match self.placed(st.axis, wi, wo) {
+            Ok(placed) => placed,
+            Err(value) => return value,
+        };
         let group = &self.groups[g];
-        if !group.fast {
-            return None;
-        }
         let (r0, count) = self.records(g);
         let rec = |slot: usize| -> (&[f64; AMPS], &[f64]) {
             let at = &c.values[(r0 + slot) * COLLAPSED_STRIDE..(r0 + slot + 1) * COLLAPSED_STRIDE];
