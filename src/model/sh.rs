@@ -119,53 +119,84 @@ impl ShBasis {
         &self,
         level: usize,
         d: [Lanes<N>; 3],
-        mut put: impl FnMut(usize, Lanes<N>),
+        put: impl FnMut(usize, Lanes<N>),
     ) {
         let level = level.min(self.level);
-        let [x, y, z] = d;
-        let (norm, ratio) = (&self.norm[..], &self.ratio[..]);
-        // Y_l^{±m} from Q_l^m: K·Q for m = 0, K·Q·Re, K·Q·Im of (x + iy)^m otherwise.
-        let mut put = |m: usize, tri: usize, centre: usize, q: Lanes<N>, cm, sm| {
-            let kq = norm[tri] * q;
-            if m == 0 {
-                put(centre, kq);
-            } else {
-                put(centre + m, kq * cm);
-                put(centre - m, kq * sm);
-            }
-        };
-        // (x + iy)^m, advanced one m at a time.
-        let (mut cm, mut sm) = (Lanes::splat(1.0), Lanes::splat(0.0));
-        // Q_m^m = (2m−1)!!, the polynomial part of P_m^m / sin^m θ.
-        let mut qmm = 1.0f64;
-        for m in 0..level + 1 {
-            if m > 0 {
-                let (c, s) = (cm * x - sm * y, cm * y + sm * x);
-                cm = c;
-                sm = s;
-                qmm *= (2 * m - 1) as f64;
-            }
-            // Indices advanced by addition: l(l+1)/2 + m into the tables, l(l+1) into `out`.
-            let (mut tri, mut centre) = (m * (m + 1) / 2 + m, m * (m + 1));
-            put(m, tri, centre, Lanes::splat(qmm), cm, sm);
-            if m == level {
-                break;
-            }
-            // Q_{m+1}^m = (2m+1)·z·Q_m^m, then the upward recurrence in l.
-            let mut q_prev = Lanes::splat(qmm);
-            let mut q = (2 * m + 1) as f64 * z * qmm;
-            tri += m + 1;
-            centre += 2 * (m + 1);
+        recurrence(&self.norm, &self.ratio, level, d, put)
+    }
+
+    /// [`ShBasis::eval_lanes`] at the level `L` fixed when compiling (≤ the basis's level;
+    /// a higher one gives nothing): the same operations, so the same bits, with the loops'
+    /// bounds and the tables' indices known, so that the compiler unrolls them. `NT` must be
+    /// (L + 1)(L + 2)/2, the tables' length at level L. The decoder's kernel evaluates its
+    /// groups through this.
+    #[inline(always)]
+    pub fn eval_lanes_fixed<const N: usize, const L: usize, const NT: usize>(
+        &self,
+        d: [Lanes<N>; 3],
+        put: impl FnMut(usize, Lanes<N>),
+    ) {
+        debug_assert_eq!(NT, (L + 1) * (L + 2) / 2);
+        let norm: Option<&[f64; NT]> = self.norm.get(..NT).and_then(|t| t.try_into().ok());
+        let ratio: Option<&[[f64; 2]; NT]> = self.ratio.get(..NT).and_then(|t| t.try_into().ok());
+        if let (Some(norm), Some(ratio)) = (norm, ratio) {
+            recurrence(norm, ratio, L, d, put)
+        }
+    }
+}
+
+/// The recurrence of [`ShBasis::eval_lanes`] over the tables `norm` and `ratio` (at least
+/// (level + 1)(level + 2)/2 each).
+#[inline(always)]
+fn recurrence<const N: usize>(
+    norm: &[f64],
+    ratio: &[[f64; 2]],
+    level: usize,
+    d: [Lanes<N>; 3],
+    mut put: impl FnMut(usize, Lanes<N>),
+) {
+    let [x, y, z] = d;
+    // Y_l^{±m} from Q_l^m: K·Q for m = 0, K·Q·Re, K·Q·Im of (x + iy)^m otherwise.
+    let mut put = |m: usize, tri: usize, centre: usize, q: Lanes<N>, cm, sm| {
+        let kq = norm[tri] * q;
+        if m == 0 {
+            put(centre, kq);
+        } else {
+            put(centre + m, kq * cm);
+            put(centre - m, kq * sm);
+        }
+    };
+    // (x + iy)^m, advanced one m at a time.
+    let (mut cm, mut sm) = (Lanes::splat(1.0), Lanes::splat(0.0));
+    // Q_m^m = (2m−1)!!, the polynomial part of P_m^m / sin^m θ.
+    let mut qmm = 1.0f64;
+    for m in 0..level + 1 {
+        if m > 0 {
+            let (c, s) = (cm * x - sm * y, cm * y + sm * x);
+            cm = c;
+            sm = s;
+            qmm *= (2 * m - 1) as f64;
+        }
+        // Indices advanced by addition: l(l+1)/2 + m into the tables, l(l+1) into `out`.
+        let (mut tri, mut centre) = (m * (m + 1) / 2 + m, m * (m + 1));
+        put(m, tri, centre, Lanes::splat(qmm), cm, sm);
+        if m == level {
+            break;
+        }
+        // Q_{m+1}^m = (2m+1)·z·Q_m^m, then the upward recurrence in l.
+        let mut q_prev = Lanes::splat(qmm);
+        let mut q = (2 * m + 1) as f64 * z * qmm;
+        tri += m + 1;
+        centre += 2 * (m + 1);
+        put(m, tri, centre, q, cm, sm);
+        for l in m + 2..level + 1 {
+            tri += l;
+            centre += 2 * l;
+            let [a, b] = ratio[tri];
+            let next = a * z * q - b * q_prev;
+            q_prev = q;
+            q = next;
             put(m, tri, centre, q, cm, sm);
-            for l in m + 2..level + 1 {
-                tri += l;
-                centre += 2 * l;
-                let [a, b] = ratio[tri];
-                let next = a * z * q - b * q_prev;
-                q_prev = q;
-                q = next;
-                put(m, tri, centre, q, cm, sm);
-            }
         }
     }
 }

@@ -252,13 +252,11 @@ impl Kernel {
             p[slot] = (k.p as usize).min(KERNEL_SH);
         }
         let sh = [&sh[0][..p[0]], &sh[1][..p[1]]];
-        // The SH values of each W pairs, overwritten up to the level's count every time.
-        let mut y = [Lanes::splat(0.0); KERNEL_SH];
         for chunk in run.members.chunks(W) {
             let lane = |j: usize| chunk[j.min(chunk.len() - 1)] as usize;
             let f = Frame::gather::<W>(std::array::from_fn(|j| &run.frames[lane(j)]));
             let q = self.query(run.g, &f, std::array::from_fn(|j| run.ts[lane(j)]));
-            let s = self.sh_parts(run.g, q.wo, sh, &mut y);
+            let s = self.sh_parts(run.g, q.wo, sh);
             let v = self
                 .value(st.res, run.g, s, [&amps[0], &amps[1]], &q)
                 .max(Lanes::splat(0.0));

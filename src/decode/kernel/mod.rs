@@ -306,8 +306,7 @@ impl Kernel {
         let p = |slot: usize| (self.recs[r0 + slot.min(count - 1)].p as usize).min(NSH);
         let sh = [&sh[0][..p(0)], &sh[1][..if count == 2 { p(1) } else { 0 }]];
         let q = self.query(g, f, [t]);
-        let mut y = [Lanes::splat(0.0); NSH];
-        let s = self.sh_parts(g, q.wo, sh, &mut y);
+        let s = self.sh_parts(g, q.wo, sh);
         let v = self.value(st.res, g, s, [&amps[0], &amps[1]], &q);
         v.max(Lanes::splat(0.0)).0[0] as f32
     }
@@ -348,7 +347,6 @@ impl Kernel {
             Ok(placed) => placed,
             Err(value) => return value,
         };
-        let group = &self.groups[g];
         let (r0, count) = self.records(g);
         let rec = |slot: usize| -> (&[f64; AMPS], &[f64]) {
             let at = &c.values[(r0 + slot) * COLLAPSED_STRIDE..(r0 + slot + 1) * COLLAPSED_STRIDE];
@@ -363,16 +361,8 @@ impl Kernel {
             (&NO_AMPS, &[][..])
         };
         let q = self.query(g, &f, [t]);
-        let level = group.level as usize;
-        let v = if level <= 2 {
-            let mut y = [Lanes::splat(0.0); { sh_count(2) }];
-            let s = self.sh_parts(g, q.wo, [s0, s1], &mut y);
-            self.value(st.res, g, s, [a0, a1], &q)
-        } else {
-            let mut y = [Lanes::splat(0.0); KERNEL_SH];
-            let s = self.sh_parts(g, q.wo, [s0, s1], &mut y);
-            self.value(st.res, g, s, [a0, a1], &q)
-        };
+        let s = self.sh_parts(g, q.wo, [s0, s1]);
+        let v = self.value(st.res, g, s, [a0, a1], &q);
         Some(v.max(Lanes::splat(0.0)).0[0] as f32)
     }
 
@@ -402,46 +392,28 @@ impl Kernel {
         }
     }
 
-    /// Group g's SH parts Σ_j ã_j·Y_j(wo) from its collapsed records `c`, the SH values into
-    /// `y`: at level 0 ã_0·Y_0^0;
-    /// otherwise in four partial sums (j mod 4) added as (s0 + s1) + (s2 + s3). One pair and
-    /// the lanes both come here, so their sums are the same bits.
+    /// Group g's SH parts Σ_j ã_j·Y_j(wo) from its collapsed records `sh`: at level 0
+    /// ã_0·Y_0^0; otherwise in four partial sums (j mod 4) added as (s0 + s1) + (s2 + s3). One
+    /// pair and the lanes both come here, so their sums are the same bits. The level is
+    /// dispatched to code compiled for it ([`ShBasis::eval_lanes_fixed`]): its loops unrolled,
+    /// its SH values kept in registers rather than in a 49-value scratch.
     #[inline(always)]
     fn sh_parts<const N: usize>(
         &self,
         g: usize,
         wo: [Lanes<N>; 3],
         sh: [&[f64]; 2],
-        y: &mut [Lanes<N>],
     ) -> [Lanes<N>; 2] {
-        let (level, count) = (self.groups[g].level as usize, self.records(g).1);
-        if level == 0 {
-            return sh.map(|a| Lanes::splat(a.first().copied().unwrap_or(0.0) * self.y0));
+        let count = self.records(g).1;
+        match self.groups[g].level {
+            0 => sh.map(|a| Lanes::splat(a.first().copied().unwrap_or(0.0) * self.y0)),
+            1 => sh_parts_at::<N, 1, 3, { sh_count(1) }>(wo, sh, count),
+            2 => sh_parts_at::<N, 2, 6, { sh_count(2) }>(wo, sh, count),
+            3 => sh_parts_at::<N, 3, 10, { sh_count(3) }>(wo, sh, count),
+            4 => sh_parts_at::<N, 4, 15, { sh_count(4) }>(wo, sh, count),
+            5 => sh_parts_at::<N, 5, 21, { sh_count(5) }>(wo, sh, count),
+            _ => sh_parts_at::<N, 6, 28, { sh_count(6) }>(wo, sh, count),
         }
-        let level = level.min(crate::model::sh::level_of(y.len()));
-        ShBasis::shared().eval_lanes(level, wo, |j, v| {
-            if let Some(y) = y.get_mut(j) {
-                *y = v;
-            }
-        });
-        let mut s = [Lanes::splat(0.0); 2];
-        for (s, a) in s.iter_mut().zip(sh).take(count) {
-            let n = a.len().min(y.len());
-            let (a, y) = (&a[..n], &y[..n]);
-            let mut acc = [Lanes::splat(0.0); 4];
-            let (a4, y4) = (a.chunks_exact(4), y.chunks_exact(4));
-            let (at, yt) = (a4.remainder(), y4.remainder());
-            for (a, y) in a4.zip(y4) {
-                for q in 0..4 {
-                    acc[q] = acc[q] + a[q] * y[q];
-                }
-            }
-            for (q, (&a, &y)) in at.iter().zip(yt).enumerate() {
-                acc[q] = acc[q] + a * y;
-            }
-            *s = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-        }
-        s
     }
 
     /// Group g's query lanes from their frames and second-record weights `t`.
@@ -548,6 +520,40 @@ impl Kernel {
             s[0]
         }
     }
+}
+
+/// [`Kernel::sh_parts`] at SH level L (NT its tables' length, NSH its functions' count) for
+/// the first `count` records.
+#[inline(always)]
+fn sh_parts_at<const N: usize, const L: usize, const NT: usize, const NSH: usize>(
+    wo: [Lanes<N>; 3],
+    sh: [&[f64]; 2],
+    count: usize,
+) -> [Lanes<N>; 2] {
+    let mut y = [Lanes::splat(0.0); NSH];
+    ShBasis::shared().eval_lanes_fixed::<N, L, NT>(wo, |j, v| {
+        if let Some(y) = y.get_mut(j) {
+            *y = v;
+        }
+    });
+    let mut s = [Lanes::splat(0.0); 2];
+    for (s, a) in s.iter_mut().zip(sh).take(count) {
+        let n = a.len().min(NSH);
+        let (a, y) = (&a[..n], &y[..n]);
+        let mut acc = [Lanes::splat(0.0); 4];
+        let (a4, y4) = (a.chunks_exact(4), y.chunks_exact(4));
+        let (at, yt) = (a4.remainder(), y4.remainder());
+        for (a, y) in a4.zip(y4) {
+            for q in 0..4 {
+                acc[q] = acc[q] + a[q] * y[q];
+            }
+        }
+        for (q, (&a, &y)) in at.iter().zip(yt).enumerate() {
+            acc[q] = acc[q] + a * y;
+        }
+        *s = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+    }
+    s
 }
 
 /// Whether a file's records fit the kernel (and the θ-line path): SH level ≤ 6, at most
