@@ -138,6 +138,14 @@ sbrdf validate ptfe.csv --folds 10 --max-error 1%"
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Interrupted (Ctrl-C, SIGTERM, SIGHUP): no destructor runs, so remove the outputs being
+    // written here, then exit as a shell expects of an interrupted program (128 + SIGINT).
+    // If the handler cannot be installed the default action stays: the destination is still
+    // never damaged, but a `.sbrdf-partial-*` file may be left beside it.
+    let _ = ctrlc::set_handler(|| {
+        sbrdf::io::output::remove_partial_outputs();
+        std::process::exit(130);
+    });
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

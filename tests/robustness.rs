@@ -143,53 +143,88 @@ fn a_full_disk_leaves_no_file_and_keeps_the_old_one() {
     no_partial_files(tmp.path());
 }
 
+/// An output interrupted while it is being written: the temporary file exists when the signal
+/// comes (the test waits for it), and afterwards the destination is what it was and no
+/// temporary file is left. `decode --like REF` creates its temporary output and then reads the
+/// reference; the reference is a FIFO that nobody writes, so the decode waits there, with its
+/// temporary file open, for as long as the test needs.
 #[cfg(unix)]
-#[test]
-fn ctrl_c_during_an_encode_leaves_the_old_output() {
+fn interrupt_while_writing(signal: &str) {
     let tmp = tempfile::tempdir().unwrap();
-    // A slow encode: the joint fit over many incidences with a budget nothing meets, so that
-    // every shape search and fit runs (a reachable budget stops at the first fitting model).
-    let set = common::paper_samples(
-        15.0,
-        50.0,
-        &(0..24).map(|i| (i as f64 * 3.5, 0.0)).collect::<Vec<_>>(),
-    );
-    let mut text = Vec::new();
-    sbrdf::io::csv::write_wide(&set, &mut text, None).unwrap();
-    std::fs::write(tmp.path().join("big.csv"), text).unwrap();
-    std::fs::write(tmp.path().join("out.sbrdf"), "precious").unwrap();
+    let golden = common::samples_dir().join("golden/tiny.sbrdf");
+    std::fs::write(tmp.path().join("out.csv"), "precious").unwrap();
+    let made = Command::new("mkfifo")
+        .arg("ref.csv")
+        .current_dir(tmp.path())
+        .status()
+        .unwrap();
+    assert!(made.success(), "mkfifo failed");
     let mut child = Command::new(env!("CARGO_BIN_EXE_sbrdf"))
-        .args([
-            "encode",
-            "big.csv",
-            "-o",
-            "out.sbrdf",
-            "--max-error",
-            "1e-9",
-            "--best-effort",
-        ])
+        .args(["decode", golden.to_str().unwrap(), "-o", "out.csv"])
+        .args(["--like", "ref.csv"])
         .current_dir(tmp.path())
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(700));
-    let interrupted = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+    let partial = || {
+        std::fs::read_dir(tmp.path()).unwrap().any(|e| {
+            e.unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with(".sbrdf-partial")
+        })
+    };
+    let start = std::time::Instant::now();
+    while !partial() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "decode ended before it created its temporary output"
+        );
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(120),
+            "no temporary output appeared in 120 s"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let sent = Command::new("kill")
+        .args([signal, &child.id().to_string()])
         .status()
         .unwrap();
-    assert!(interrupted.success());
-    let status = child.wait().unwrap();
-    use std::os::unix::process::ExitStatusExt;
+    assert!(sent.success());
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > std::time::Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("{signal}: the program still runs 60 s after the signal");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
     assert_eq!(
-        status.signal(),
-        Some(2),
-        "the encode was not interrupted by SIGINT ({status}): make it slower"
+        status.code(),
+        Some(130),
+        "{signal}: the program should exit with 130 after removing its partial output ({status})"
     );
     assert_eq!(
-        std::fs::read_to_string(tmp.path().join("out.sbrdf")).unwrap(),
-        "precious"
+        std::fs::read_to_string(tmp.path().join("out.csv")).unwrap(),
+        "precious",
+        "{signal}: the destination changed"
     );
     no_partial_files(tmp.path());
+}
+
+#[cfg(unix)]
+#[test]
+fn ctrl_c_while_an_output_is_written_leaves_the_old_output_and_no_partial_file() {
+    interrupt_while_writing("-INT");
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_while_an_output_is_written_leaves_the_old_output_and_no_partial_file() {
+    interrupt_while_writing("-TERM");
 }
 
 #[test]
