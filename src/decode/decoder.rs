@@ -39,6 +39,11 @@ impl Decoder {
         Self::from_bytes_with_limits(bytes, &Limits::default())
     }
 
+    /// Parses a file held in memory under the given resource [`Limits`] (for untrusted input).
+    ///
+    /// Errors: [`Error::Format`] for a damaged file (or warped tables that cannot be prepared),
+    /// [`Error::Unsupported`] for one that needs a newer reader, [`Error::LimitsExceeded`] for
+    /// one above `limits`.
     pub fn from_bytes_with_limits(bytes: &[u8], limits: &Limits) -> Result<Self> {
         // The reader validated the material: only its resident form is kept.
         let material = read_material(bytes, limits)?;
@@ -102,6 +107,8 @@ impl Decoder {
         self.material.get_or_init(|| self.evaluator.res.material())
     }
 
+    /// Consumes the decoder and returns its [`Material`] (the view of [`Decoder::material`],
+    /// built now if it was not yet).
     pub fn into_material(mut self) -> Material {
         self.material
             .take()

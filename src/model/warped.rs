@@ -45,6 +45,7 @@ pub enum TableTransform {
 }
 
 impl TableTransform {
+    /// The transform's code (the high four bits of `layout`): 0 DCT, 1 wavelet.
     pub fn code(self) -> u8 {
         match self {
             TableTransform::Dct => 0,
@@ -52,6 +53,7 @@ impl TableTransform {
         }
     }
 
+    /// The transform with this code; None for an unknown code.
     pub fn from_code(code: u8) -> Option<Self> {
         match code {
             0 => Some(TableTransform::Dct),
