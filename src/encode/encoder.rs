@@ -23,6 +23,8 @@ use crate::model::Precision;
 use rayon::prelude::*;
 
 impl EncodeOptions {
+    /// The SH level to fit, resolving `None`: 1 for the paper's split, 4 without a peak, 6 for
+    /// the joint fit.
     pub fn effective_sh_level(&self) -> usize {
         self.sh_level.unwrap_or(match self.peak {
             PeakMode::Paper => 1,

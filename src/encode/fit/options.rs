@@ -21,6 +21,7 @@ pub enum PeakMode {
 pub enum CriticalAngle {
     /// Chosen per incident direction by minimising the relative error (the paper's Fig. 6).
     Auto,
+    /// This angle (degrees) for every incident direction.
     Fixed(f64),
 }
 
@@ -52,6 +53,7 @@ impl LobeFamily {
         }
     }
 
+    /// The family's name as the command line spells it (`"gaussian"`, `"microfacet"`, …).
     pub fn name(self) -> &'static str {
         match self {
             LobeFamily::Gaussian => "gaussian",
