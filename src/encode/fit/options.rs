@@ -78,7 +78,7 @@ pub struct JointOptions {
     /// Relative error budget per incidence, if any.
     pub max_error: Option<f64>,
     /// With a budget, also hold each candidate to it at samples the fit did not see: a model is
-    /// taken only when its leave-one-out error is within [`HELD_OUT_SLACK`] times the budget;
+    /// taken only when its leave-one-out error is within `HELD_OUT_SLACK` (1.5) times the budget;
     /// when none is, the model with the lowest leave-one-out error (never bytes spent fitting
     /// noise). Without it, the budget is met at the samples alone.
     pub held_out: bool,
