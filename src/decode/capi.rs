@@ -25,7 +25,7 @@ pub const SBRDF_ERR_UNSUPPORTED: c_int = 4;
 /// The file exceeds the default [`Limits`](crate::Limits) ([`Error::LimitsExceeded`]).
 pub const SBRDF_ERR_LIMITS: c_int = 5;
 /// An invalid argument: a path that is not UTF-8, a non-finite direction or uniform number, a
-/// batch size that overflows ([`Error::Parameter`], [`Error::Input`]).
+/// batch size or stride that overflows ([`Error::Parameter`], [`Error::Input`]).
 pub const SBRDF_ERR_ARGUMENT: c_int = 6;
 /// A panic inside the library, caught before it reached C.
 pub const SBRDF_ERR_INTERNAL: c_int = 7;

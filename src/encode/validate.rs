@@ -51,7 +51,7 @@ impl Default for ValidateOptions {
 /// isotropic), θo every 2.5° from 1.25°, φo every 5°, the file's wavelengths.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct DenseGrid {
-    /// Values evaluated (directions × wavelengths).
+    /// Values evaluated (incidences × outgoing directions × wavelengths).
     pub values: usize,
     /// Values below 0 before the clamp, and the lowest.
     pub negative: usize,

@@ -1,4 +1,4 @@
-//! Bytes: the `.sbrdf` format, versions 1.0 to 1.3 — signature, chunk types, limits; the writer and
+//! Bytes: the `.sbrdf` format, versions 1.0 to 1.5 — signature, chunk types, limits; the writer and
 //! the reader. Uses [`crate::model`] only.
 //!
 //! Normative text: `spec/FORMAT.md`. Layout: a 10-byte signature, then chunks of

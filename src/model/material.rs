@@ -303,8 +303,9 @@ pub struct SamplePositions {
 /// A whole `.sbrdf` file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
-    /// The format's minor version (major is 1): as read from the file, or what the encoder
-    /// chose to write ([`crate::format::written_version`]).
+    /// The format's minor version (major is 1) as read from a file. For writing, the newest
+    /// minor version the file may use: the writer derives the version it writes from this and
+    /// the features used ([`crate::format::written_version`]).
     pub version_minor: u16,
     /// The spectral basis, its number of terms and interval.
     pub spectral: SpectralSpace,

@@ -50,8 +50,8 @@ pub struct Fitted {
 
 impl FitContext {
     /// The context for a file with this spectral space, input `wavelengths` (nm), SH level and
-    /// peak mode; the joint fit's options start at their defaults (Gaussian lobes, f32, no
-    /// budget).
+    /// peak mode; the joint fit's options start as Gaussian lobes up to `sh_level`, f32, no
+    /// budget (the encoder sets its own).
     pub fn new(
         spectral: SpectralSpace,
         wavelengths: &[f64],
