@@ -27,22 +27,35 @@ impl fmt::Display for Location {
     }
 }
 
+/// Every error this crate returns; see each variant for when.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// Reading or writing a file failed.
     #[error("{}: {source}", path.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "I/O".into()))]
     Io {
+        /// The file concerned, when there is one.
         path: Option<PathBuf>,
+        /// The underlying I/O error.
         #[source]
         source: std::io::Error,
     },
     /// The file is damaged or is not an sbrdf file.
     #[error("malformed sbrdf file at {at}: {message}")]
-    Format { at: Location, message: String },
+    Format {
+        /// Where in the file.
+        at: Location,
+        /// What is wrong.
+        message: String,
+    },
     /// The file is well formed but needs a newer reader (newer major version, unknown critical
     /// chunk, unknown enumeration value).
     #[error("unsupported sbrdf file at {at}: {message}")]
-    Unsupported { at: Location, message: String },
+    Unsupported {
+        /// Where in the file.
+        at: Location,
+        /// What this version cannot read.
+        message: String,
+    },
     /// The caller asked for something invalid (options, query arguments).
     #[error("{0}")]
     Parameter(String),
@@ -63,4 +76,5 @@ impl Error {
     }
 }
 
+/// `std::result::Result` with this crate's [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;

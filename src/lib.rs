@@ -23,6 +23,8 @@
 //!
 //! Conventions: `spec/EVALUATION.md`; byte format: `spec/FORMAT.md`.
 
+#![warn(missing_docs)]
+
 pub mod error;
 
 pub mod decode;

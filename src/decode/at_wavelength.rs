@@ -50,6 +50,19 @@ impl<'a> AtWavelength<'a> {
 
     /// ρ at unit vectors `wi` (toward the light) and `wo` (toward the viewer) in the local frame
     /// (z = normal), in 1/sr: [`crate::Decoder::eval`] at this wavelength. Never allocates.
+    ///
+    /// ```
+    /// # let path = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf");
+    /// let decoder = sbrdf::Decoder::open(path)?;
+    /// // A hero-wavelength path tracer: one view per sampled wavelength, many queries each.
+    /// for lambda in [480.0f32, 560.0, 640.0] {
+    ///     let at = decoder.at(lambda);
+    ///     let rho = at.eval([0.3, 0.0, 0.954], [-0.3, 0.1, 0.949]);
+    ///     assert!(rho >= 0.0);
+    ///     assert_eq!(at.eval([0.3, 0.0, 0.954], [0.0, 0.0, -1.0]), 0.0); // below the horizon
+    /// }
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     #[inline]
     pub fn eval(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
         if let (Some(c), Some((kernel, st)), Some(b)) =

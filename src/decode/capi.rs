@@ -12,13 +12,22 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 /// An open material (opaque to C).
 pub struct sbrdf_t(Decoder);
 
+/// Success.
 pub const SBRDF_OK: c_int = 0;
+/// A required pointer argument was null.
 pub const SBRDF_ERR_NULL: c_int = 1;
+/// Reading the file failed ([`Error::Io`]).
 pub const SBRDF_ERR_IO: c_int = 2;
+/// The file is damaged or not an sbrdf file ([`Error::Format`]).
 pub const SBRDF_ERR_FORMAT: c_int = 3;
+/// The file needs a newer reader ([`Error::Unsupported`]).
 pub const SBRDF_ERR_UNSUPPORTED: c_int = 4;
+/// The file exceeds the default [`Limits`](crate::Limits) ([`Error::LimitsExceeded`]).
 pub const SBRDF_ERR_LIMITS: c_int = 5;
+/// An invalid argument: a path that is not UTF-8, a non-finite direction or uniform number, a
+/// batch size or stride that overflows ([`Error::Parameter`], [`Error::Input`]).
 pub const SBRDF_ERR_ARGUMENT: c_int = 6;
+/// A panic inside the library, caught before it reached C.
 pub const SBRDF_ERR_INTERNAL: c_int = 7;
 
 fn code_of(e: &Error) -> c_int {

@@ -34,11 +34,30 @@ pub struct Decoder {
 }
 
 impl Decoder {
-    /// Parses a file held in memory, with the default [`Limits`].
+    /// Parses a file held in memory, with the default [`Limits`]. Errors as
+    /// [`Decoder::from_bytes_with_limits`].
+    ///
+    /// ```
+    /// let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"),
+    ///     "/samples/golden/ggx_3inc_default.sbrdf")).unwrap();
+    /// let decoder = sbrdf::Decoder::from_bytes(&bytes)?;
+    /// assert_eq!(decoder.material().records.len(), 3);
+    /// // Bytes that are not an sbrdf file are refused as malformed.
+    /// assert!(matches!(
+    ///     sbrdf::Decoder::from_bytes(b"not an sbrdf file"),
+    ///     Err(sbrdf::Error::Format { .. })
+    /// ));
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn from_bytes(bytes: &[u8]) -> Result<Self> {
         Self::from_bytes_with_limits(bytes, &Limits::default())
     }
 
+    /// Parses a file held in memory under the given resource [`Limits`] (for untrusted input).
+    ///
+    /// Errors: [`Error::Format`] for a damaged file (or warped tables that cannot be prepared),
+    /// [`Error::Unsupported`] for one that needs a newer reader, [`Error::LimitsExceeded`] for
+    /// one above `limits`.
     pub fn from_bytes_with_limits(bytes: &[u8], limits: &Limits) -> Result<Self> {
         // The reader validated the material: only its resident form is kept.
         let material = read_material(bytes, limits)?;
@@ -56,6 +75,22 @@ impl Decoder {
     }
 
     /// Reads and parses a file; refuses files above the default size limit before reading them.
+    ///
+    /// Errors: [`Error::Io`] when the file cannot be read, [`Error::LimitsExceeded`] when it is
+    /// larger than [`Limits::default`] allows, otherwise as [`Decoder::from_bytes_with_limits`]
+    /// (with the path in the message).
+    ///
+    /// ```
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf");
+    /// let decoder = sbrdf::Decoder::open(path)?;
+    /// let wavelengths = &decoder.material().wavelengths; // nm, as the input was sampled
+    /// assert!(wavelengths.len() > 1 && wavelengths[0] < wavelengths[1]);
+    /// assert!(matches!(
+    ///     sbrdf::Decoder::open("no/such/file.sbrdf"),
+    ///     Err(sbrdf::Error::Io { .. })
+    /// ));
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn open(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
         let limits = Limits::default();
@@ -102,6 +137,8 @@ impl Decoder {
         self.material.get_or_init(|| self.evaluator.res.material())
     }
 
+    /// Consumes the decoder and returns its [`Material`] (the view of [`Decoder::material`],
+    /// built now if it was not yet).
     pub fn into_material(mut self) -> Material {
         self.material
             .take()
@@ -130,6 +167,22 @@ impl Decoder {
     /// non-finite vectors. Wavelengths outside the file's spectral interval are clamped to it;
     /// incident directions outside the stored θ range are clamped to it. Writes
     /// `min(wavelengths.len(), out.len())` values; never allocates.
+    ///
+    /// ```
+    /// # let path = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf");
+    /// let decoder = sbrdf::Decoder::open(path)?;
+    /// // Light 30° from the normal in the x–z plane; viewer near its mirror direction.
+    /// let (s, c) = 30f32.to_radians().sin_cos();
+    /// let wi = [s, 0.0, c];
+    /// let wo = [-s, 0.0, c];
+    /// let mut rho = [0.0f32; 3];
+    /// decoder.eval(wi, wo, &[450.0, 550.0, 650.0], &mut rho);
+    /// assert!(rho.iter().all(|&v| v > 0.0));
+    /// // Below the horizon the value is 0.
+    /// decoder.eval(wi, [0.0, 0.0, -1.0], &[550.0], &mut rho[..1]);
+    /// assert_eq!(rho[0], 0.0);
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     #[inline]
     pub fn eval(&self, wi: [f32; 3], wo: [f32; 3], wavelengths: &[f32], out: &mut [f32]) {
         self.evaluator.eval(wi, wo, wavelengths, out)
@@ -203,6 +256,22 @@ impl Decoder {
     ///
     /// Errors (nothing written): `wi` and `wo` have different lengths, neither being 1, or
     /// `out` holds fewer than N·`wavelengths.len()` values.
+    ///
+    /// ```
+    /// # let path = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf");
+    /// let decoder = sbrdf::Decoder::open(path)?;
+    /// let wi = [[0.5f32, 0.0, 0.866]]; // one light for every pair
+    /// let wo = [[-0.5f32, 0.0, 0.866], [0.0, 0.5, 0.866], [0.0, 0.0, 1.0]];
+    /// let wavelengths = [450.0f32, 550.0];
+    /// let mut out = [0.0f32; 3 * 2]; // row i: pair i's two values
+    /// decoder.eval_batch(&wi, &wo, &wavelengths, &mut out)?;
+    /// let mut one = [0.0f32; 2];
+    /// decoder.eval(wi[0], wo[1], &wavelengths, &mut one);
+    /// assert_eq!(&out[2..4], &one[..]); // bit for bit what eval gives
+    /// // Too small an output is refused, and nothing is written.
+    /// assert!(decoder.eval_batch(&wi, &wo, &wavelengths, &mut out[..5]).is_err());
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn eval_batch(
         &self,
         wi: &[[f32; 3]],
@@ -252,6 +321,22 @@ impl Decoder {
     /// right to the extent that the material is reciprocal (ρ(wi, wo) = ρ(wo, wi)); the stored
     /// BRDF is reciprocal exactly as far as its input and its fit are (`tests/sampling.rs`
     /// reports how far).
+    ///
+    /// ```
+    /// # let path = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf");
+    /// let decoder = sbrdf::Decoder::open(path)?;
+    /// let wi = [0.5f32, 0.0, 0.866];
+    /// let s = decoder.sample(wi, [0.25, 0.75]).expect("wi is above the horizon");
+    /// assert!(s.wo[2] > 0.0 && s.pdf > 0.0);
+    /// assert_eq!(s.pdf, decoder.pdf(wi, s.wo));
+    /// // One-sample estimate of the reflected radiance from this light at 550 nm:
+    /// let mut rho = [0.0f32];
+    /// decoder.eval(wi, s.wo, &[550.0], &mut rho);
+    /// let weight = rho[0] * s.wo[2] / s.pdf;
+    /// assert!(weight.is_finite() && weight >= 0.0);
+    /// assert!(decoder.sample([0.0, 0.0, -1.0], [0.25, 0.75]).is_none()); // below the horizon
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn sample(&self, wi: [f32; 3], u: [f32; 2]) -> Option<Sample> {
         if let Some(w) = &self.evaluator.warped {
             return super::warped::sample_warped(w, wi, u);
@@ -262,6 +347,15 @@ impl Decoder {
     /// The density (1/sr, over solid angle) with which [`Decoder::sample`] draws `wo` for `wi`:
     /// 0 when either is below the horizon, zero or not finite; otherwise > 0 wherever
     /// cos θo > 0. Never allocates.
+    ///
+    /// ```
+    /// # let path = concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf");
+    /// let decoder = sbrdf::Decoder::open(path)?;
+    /// let wi = [0.5f32, 0.0, 0.866];
+    /// assert!(decoder.pdf(wi, [-0.5, 0.0, 0.866]) > 0.0);
+    /// assert_eq!(decoder.pdf(wi, [0.0, 0.0, -1.0]), 0.0); // below the horizon
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn pdf(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
         if let Some(w) = &self.evaluator.warped {
             return super::warped::pdf_warped(w, wi, wo);

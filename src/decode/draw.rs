@@ -6,7 +6,9 @@
 /// frame, z = normal) and the density it was drawn with, over solid angle (1/sr).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
+    /// The drawn outgoing direction: a unit vector toward the viewer, local frame (z = normal).
     pub wo: [f32; 3],
+    /// The density `wo` was drawn with, over solid angle (1/sr); equals [`Decoder::pdf`](crate::Decoder::pdf).
     pub pdf: f32,
 }
 

@@ -23,6 +23,8 @@ use crate::model::Precision;
 use rayon::prelude::*;
 
 impl EncodeOptions {
+    /// The SH level to fit, resolving `None`: 1 for the paper's split, 4 without a peak, 6 for
+    /// the joint fit.
     pub fn effective_sh_level(&self) -> usize {
         self.sh_level.unwrap_or(match self.peak {
             PeakMode::Paper => 1,
@@ -109,6 +111,34 @@ impl EncodeOptions {
 }
 
 /// Encodes `set` with the model `opts.model` names.
+///
+/// Errors: [`Error::Parameter`] for samples that break [`SampleSet::validate`] or options that
+/// do not fit them (too many terms, an SH level above the format's, …). A budget that cannot be
+/// met is not an error: those records are listed in [`Encoded::unmet`].
+///
+/// ```
+/// use sbrdf::encode::{encode, EncodeOptions, IncidentSamples, SampleSet};
+/// // A Lambertian surface, ρ = albedo(λ)/π, lit from θi = 30°, seen on a 15° × 30° grid.
+/// let albedo = [0.2, 0.5, 0.3];
+/// let (mut directions, mut values) = (Vec::new(), Vec::new());
+/// for i in 0..6 {
+///     for j in 0..12 {
+///         directions.push([7.5 + 15.0 * i as f64, 30.0 * j as f64]); // (θo, φo), degrees
+///         values.extend(albedo.map(|a| a / std::f64::consts::PI)); // 1/sr
+///     }
+/// }
+/// let set = SampleSet {
+///     wavelengths: vec![450.0, 550.0, 650.0], // nm
+///     incidences: vec![IncidentSamples { theta_i: 30.0, phi_i: 0.0, directions, values }],
+/// };
+/// let encoded = encode(&set, &EncodeOptions::default())?;
+/// let bytes = sbrdf::write_material(&encoded.material)?; // the .sbrdf file
+/// let decoder = sbrdf::Decoder::from_bytes(&bytes)?;
+/// let mut rho = [0.0];
+/// decoder.eval_deg((30.0, 0.0), (40.0, 90.0), &[550.0], &mut rho);
+/// assert!((rho[0] - 0.5 / std::f64::consts::PI).abs() < 0.01 * rho[0]);
+/// # Ok::<(), sbrdf::Error>(())
+/// ```
 pub fn encode(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
     encode_with_progress(set, opts, None)
 }

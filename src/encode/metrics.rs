@@ -13,8 +13,11 @@ use rayon::prelude::*;
 pub struct ErrorSums {
     /// Σ(ρ̂ − ρ)², Σρ², Σ ln((ρ̂ + ε)/(max(ρ, 0) + ε))², and the number of values.
     pub sq_error: f64,
+    /// Σρ² (see `sq_error`).
     pub sq_reference: f64,
+    /// Σ ln((ρ̂ + ε)/(max(ρ, 0) + ε))² (see `sq_error`).
     pub sq_log: f64,
+    /// The number of values summed.
     pub count: usize,
 }
 
@@ -29,6 +32,7 @@ impl ErrorSums {
         self.count += 1;
     }
 
+    /// Adds the sums of `o` to these (pooling two sets of values).
     pub fn merge(&mut self, o: &ErrorSums) {
         self.sq_error += o.sq_error;
         self.sq_reference += o.sq_reference;

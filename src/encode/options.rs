@@ -13,6 +13,7 @@ use crate::model::Precision;
 /// Encoder settings; the CLI's flags map one to one onto these fields.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EncodeOptions {
+    /// The spectral basis (`--basis`); the default is the data-derived one.
     pub basis: SpectralBasis,
     /// Number of spectral terms K (the paper: 13 = a0, a1..a6, b1..b6). `None`: 13 for the
     /// analytic bases; for the data-derived basis the smallest rank whose out-of-basis error is
@@ -22,8 +23,12 @@ pub struct EncodeOptions {
     /// choice for its modes (1 with a peak, its Fig. 6; 4 without, its Fig. 4) and 6 for the
     /// joint fit.
     pub sh_level: Option<usize>,
+    /// How the specular peak is represented (`--peak`); the default is the joint fit.
     pub peak: PeakMode,
+    /// The critical angle of the paper's split (used with [`PeakMode::Paper`]).
     pub critical_angle: CriticalAngle,
+    /// Storage precision of coefficients and amplitudes (`--precision`); with a budget, the
+    /// joint fit falls back to f32 where f16 misses it.
     pub precision: Precision,
     /// Lobe families the joint fit may use (`--lobes`).
     pub lobes: Vec<LobeFamily>,
@@ -70,6 +75,7 @@ pub enum ModelChoice {
 }
 
 impl ModelChoice {
+    /// The choice's name as `--model` spells it: `"auto"`, `"records"` or `"shared"`.
     pub fn name(self) -> &'static str {
         match self {
             ModelChoice::Auto => "auto",
@@ -93,6 +99,7 @@ pub enum MetaLevel {
 }
 
 impl MetaLevel {
+    /// The level's name as `--meta` spells it: `"full"`, `"short"` or `"none"`.
     pub fn name(self) -> &'static str {
         match self {
             MetaLevel::Full => "full",
@@ -151,6 +158,7 @@ impl Default for EncodeOptions {
 /// The result of an encode: the material and the figures an encoder reports.
 #[derive(Debug, Clone)]
 pub struct Encoded {
+    /// The encoded material, ready for [`crate::write_material`].
     pub material: Material,
     /// Relative L2 error over every sample of the input, as stored.
     pub rel_error: f64,

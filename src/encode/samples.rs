@@ -6,6 +6,7 @@
 pub struct IncidentSamples {
     /// Incident direction, degrees; θ in [0, 90], φ in [0, 360).
     pub theta_i: f64,
+    /// Incident azimuth φi, degrees, in [0, 360).
     pub phi_i: f64,
     /// Outgoing directions (θo, φo), degrees, sorted by (θo, φo).
     pub directions: Vec<[f64; 2]>,
@@ -55,6 +56,7 @@ impl SampleSet {
         at_floor as f64 / n as f64
     }
 
+    /// Number of values below 0 (over all incidences and wavelengths).
     pub fn negative_count(&self) -> usize {
         self.incidences
             .iter()

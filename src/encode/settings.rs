@@ -21,9 +21,11 @@ pub struct EncodeSettings {
     pub encoder: EncodeOptions,
     /// `--max-error` as given: an explicit budget fails the encode where it cannot be met.
     pub max_error: Option<f64>,
+    /// `--best-effort`: write the file even where an explicit budget is unmet (with a warning).
     pub best_effort: bool,
     /// `--wavelengths MIN:MAX`.
     pub wavelengths: Option<(f64, f64)>,
+    /// `--incident-max DEG`: encode only the incidences with θi at most this many degrees.
     pub incident_max: Option<f64>,
     /// How the inputs are read (`--rgb-to-spectrum`): for the caller's reader, which runs
     /// before [`encode_samples`].
@@ -91,6 +93,7 @@ pub fn parse_critical_angle(s: &str) -> Result<CriticalAngle> {
     }
 }
 
+/// `--basis`: `data`, `cosine` or `fourier`.
 pub fn parse_basis(s: &str) -> Result<SpectralBasis> {
     match s.trim() {
         "data" => Ok(SpectralBasis::Tabulated),
@@ -100,6 +103,7 @@ pub fn parse_basis(s: &str) -> Result<SpectralBasis> {
     }
 }
 
+/// `--model`: `auto`, `records` or `shared`.
 pub fn parse_model(s: &str) -> Result<ModelChoice> {
     match s.trim() {
         "auto" => Ok(ModelChoice::Auto),
@@ -109,6 +113,7 @@ pub fn parse_model(s: &str) -> Result<ModelChoice> {
     }
 }
 
+/// `--peak`: `joint`, `paper` or `none`.
 pub fn parse_peak(s: &str) -> Result<PeakMode> {
     match s.trim() {
         "joint" => Ok(PeakMode::Joint),
@@ -118,6 +123,7 @@ pub fn parse_peak(s: &str) -> Result<PeakMode> {
     }
 }
 
+/// `--precision`: `f16` or `f32`.
 pub fn parse_precision(s: &str) -> Result<Precision> {
     match s.trim() {
         "f16" => Ok(Precision::F16),
@@ -126,6 +132,8 @@ pub fn parse_precision(s: &str) -> Result<Precision> {
     }
 }
 
+/// One name of `--lobes`: `cosine-power`, `gaussian`, `microfacet`, `microfacet-sin2` or
+/// `microfacet-aniso`.
 pub fn parse_lobe(s: &str) -> Result<LobeFamily> {
     match s.trim() {
         "cosine-power" => Ok(LobeFamily::CosinePower),
@@ -266,7 +274,9 @@ impl EncodeSettings {
 
 /// An encode's result: the file's bytes, the material, and what the user should be told.
 pub struct Outcome {
+    /// The `.sbrdf` file's bytes.
     pub bytes: Vec<u8>,
+    /// The material and the encoder's figures.
     pub encoded: Encoded,
     /// The samples actually encoded (after `wavelengths`/`incident_max`).
     pub samples: SampleSet,

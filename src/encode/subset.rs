@@ -30,14 +30,17 @@ pub struct SubsetOptions {
     pub terms: Option<usize>,
     /// Keep SH functions up to this level.
     pub sh_level: Option<usize>,
-    /// Store records (and a tabulated basis) in f16.
+    /// `Some(F16)`: store records (and a tabulated basis) in f16. `Some(F32)` changes nothing
+    /// (a subset never widens storage).
     pub precision: Option<Precision>,
 }
 
 /// What one record became.
 #[derive(Debug, Clone)]
 pub struct RecordChange {
+    /// The record's incident polar angle θi, degrees.
     pub theta_i: f32,
+    /// The record's incident azimuth φi, degrees.
     pub phi_i: f32,
     /// The error the original file records for this incidence.
     pub recorded: f64,
@@ -49,10 +52,12 @@ pub struct RecordChange {
     pub bound: f32,
 }
 
+/// What [`subset`] did: the cuts made and what each kept record became.
 #[derive(Debug, Clone)]
 pub struct SubsetReport {
     /// One line per cut made, saying whether it truncates or re-tabulates.
     pub actions: Vec<String>,
+    /// One entry per kept record, in file order.
     pub records: Vec<RecordChange>,
     /// Whether the change was measured at the file's stored sample positions (else a 5° grid).
     pub at_stored_positions: bool,

@@ -51,9 +51,11 @@ impl Default for ValidateOptions {
 /// isotropic), θo every 2.5° from 1.25°, φo every 5°, the file's wavelengths.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct DenseGrid {
+    /// Values evaluated (incidences × outgoing directions × wavelengths).
     pub values: usize,
     /// Values below 0 before the clamp, and the lowest.
     pub negative: usize,
+    /// The lowest finite value before the clamp, 1/sr (+∞ when none was finite).
     pub minimum: f64,
     /// Values that are not finite (never expected).
     pub not_finite: usize,
@@ -109,24 +111,38 @@ fn dense_grid(dec: &Decoder, wavelengths: &[f64]) -> DenseGrid {
 /// The three figures of one incidence.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IncidenceReport {
+    /// Incident polar angle θi, degrees.
     pub theta_i: f64,
+    /// Incident azimuth φi, degrees.
     pub phi_i: f64,
+    /// Number of outgoing directions sampled at this incidence.
     pub samples: usize,
+    /// The error at the samples of the model encoded from everything.
     pub fit: ErrorSums,
+    /// The k-fold error at this incidence's held-out samples (None without folds).
     pub folds: Option<ErrorSums>,
+    /// The error at all its samples when this incidence is left out of the encode (None when
+    /// not measured).
     pub left_out: Option<ErrorSums>,
 }
 
 /// Everything `validate` measures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ValidationReport {
+    /// ε of the log figure ([`log_epsilon`]), 1/sr.
     pub epsilon: f64,
     /// Bytes of the file encoded from all samples, without sample positions.
     pub bytes: usize,
+    /// The figures per incidence, in the input's order.
     pub incidences: Vec<IncidenceReport>,
+    /// The fit error pooled over every incidence.
     pub fit: ErrorSums,
+    /// The k-fold error pooled over every incidence (None without folds).
     pub folds: Option<ErrorSums>,
+    /// The leave-one-incidence-out error pooled over the incidences left out (None when none
+    /// was).
     pub left_out: Option<ErrorSums>,
+    /// The dense-grid count, when asked for ([`ValidateOptions::dense_grid`]).
     pub dense: Option<DenseGrid>,
 }
 

@@ -54,7 +54,9 @@ pub struct WarpedInput {
 /// A linear map of spectra (W values) to D measured values, row-major.
 #[derive(Debug, Clone)]
 pub struct Metric {
+    /// D, the number of measured values.
     pub rows: usize,
+    /// D rows of W values, row-major: value d = Σ_l `matrix[d·W + l]`·s_l.
     pub matrix: Vec<f64>,
 }
 
@@ -87,6 +89,7 @@ pub const MAX_AUTO_TERMS: usize = 12;
 /// The result: the material (records empty, `WARP` filled) and what was measured.
 #[derive(Debug, Clone)]
 pub struct WarpedEncoded {
+    /// The encoded material: empty records, the tables in [`Material::warped`].
     pub material: Material,
     /// Relative L2 error of each stored incidence (table units).
     pub errors: Vec<f64>,

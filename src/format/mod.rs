@@ -1,4 +1,4 @@
-//! Bytes: the `.sbrdf` format, versions 1.0 to 1.3 — signature, chunk types, limits; the writer and
+//! Bytes: the `.sbrdf` format, versions 1.0 to 1.5 — signature, chunk types, limits; the writer and
 //! the reader. Uses [`crate::model`] only.
 //!
 //! Normative text: `spec/FORMAT.md`. Layout: a 10-byte signature, then chunks of
@@ -24,6 +24,8 @@ pub fn warp_payload_len(w: &crate::model::warped::WarpedModel) -> usize {
 /// The first ten bytes of every file. 0x89 catches 7-bit transports, "\r\n" and "\n" catch
 /// line-ending translation, 0x1A stops `type` on old systems (PNG's design).
 pub const SIGNATURE: [u8; 10] = [0x89, b'S', b'B', b'R', b'D', b'F', 0x0D, 0x0A, 0x1A, 0x0A];
+/// The major version this crate reads and writes; a file with another major version is refused
+/// as unsupported.
 pub const VERSION_MAJOR: u16 = 1;
 /// The newest minor version this crate reads and writes. A file is written as 1.5 when its
 /// warped tables are coded in the wavelet transform, as 1.4 when it holds warped tables
@@ -58,15 +60,23 @@ pub fn is_wavelength_range(w: &[f32]) -> bool {
 /// The only angle convention so far (see `spec/EVALUATION.md`).
 pub const ANGLE_CONVENTION: u8 = 1;
 
+/// The header: version, bases, maximum sizes, wavelengths, incident directions (first chunk).
 pub const CHUNK_HEAD: [u8; 4] = *b"HEAD";
+/// One incident record (`spec/FORMAT.md` §3.3).
 pub const CHUNK_RECD: [u8; 4] = *b"RECD";
 /// Version 1.3: all N records in one chunk, without what `HEAD` and their order already say.
 pub const CHUNK_RECS: [u8; 4] = *b"RECS";
+/// End of file: empty, last.
 pub const CHUNK_ENDF: [u8; 4] = *b"ENDF";
+/// The tabulated spectral basis functions (basis 3 only).
 pub const CHUNK_SBAS: [u8; 4] = *b"SBAS";
+/// Ancillary: UTF-8 metadata (JSON).
 pub const CHUNK_META: [u8; 4] = *b"meta";
+/// Ancillary: the outgoing directions the encoder saw (§3.5).
 pub const CHUNK_SAMP: [u8; 4] = *b"samp";
+/// Version 1.1: the factor model shared by every incidence (§3.7).
 pub const CHUNK_FACT: [u8; 4] = *b"FACT";
+/// Ancillary, version 1.1: the encoder's held-out error per record (§3.8).
 pub const CHUNK_XVAL: [u8; 4] = *b"xval";
 /// Warped tables (format 1.4, §3.10).
 pub const CHUNK_WARP: [u8; 4] = *b"WARP";

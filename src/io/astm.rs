@@ -41,7 +41,9 @@ pub struct AstmFile {
     pub keywords: Vec<(String, String)>,
     /// The header as written, line by line (blank lines kept), without `NUM_POINTS` and `VARS`.
     pub header: Vec<String>,
+    /// The wavelengths of the value columns, nm, in column order.
     pub wavelengths: Vec<f64>,
+    /// The data rows, in file order.
     pub rows: Vec<AstmRow>,
     /// True when φs was turned by 180° because the peaks sat on the source's side.
     pub azimuth_turned: bool,
@@ -52,8 +54,11 @@ pub struct AstmFile {
 /// One data row: θi, φi, θs, φs in degrees (φ in [0, 360)), one value per wavelength.
 #[derive(Debug, Clone)]
 pub struct AstmRow {
+    /// The row's line number in the file, for messages.
     pub line: u64,
+    /// θi, φi, θs, φs in degrees (θ clamped to [0, 90], φ wrapped into [0, 360)).
     pub angles: [f64; 4],
+    /// The BRDF (1/sr), one value per wavelength of [`AstmFile::wavelengths`].
     pub values: Vec<f64>,
 }
 

@@ -20,12 +20,16 @@ const ANGLE_COLUMNS: [&str; 4] = ["theta_i", "phi_i", "theta_o", "phi_o"];
 /// Which layout a file uses and where its columns are.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Layout {
+    /// One sample a row: `wavelength_nm` and `value` columns.
     Long {
+        /// Column index of `wavelength_nm`.
         wavelength: usize,
+        /// Column index of `value`.
         value: usize,
     },
     /// (column index, wavelength in nm) for each wavelength column, in file order.
     Wide {
+        /// (column index, wavelength in nm) pairs.
         columns: Vec<(usize, f64)>,
     },
 }
@@ -37,6 +41,7 @@ pub struct Header {
     pub names: Vec<String>,
     /// Column of θi, φi, θo, φo.
     pub angles: [usize; 4],
+    /// The layout and its value columns.
     pub layout: Layout,
 }
 
@@ -44,10 +49,13 @@ pub struct Header {
 /// (wavelength, value) pair (long) or one value per wavelength column (wide).
 #[derive(Debug, Clone)]
 pub struct Row {
+    /// The row's line number in the file, for messages.
     pub line: u64,
+    /// θi, φi, θo, φo in degrees (φ wrapped into [0, 360)).
     pub angles: [f64; 4],
-    /// Long layout: `[wavelength]`; wide: empty (the header holds them).
+    /// Long layout: `Some(wavelength)` in nm; wide: `None` (the header holds them).
     pub wavelength: Option<f64>,
+    /// BRDF values (1/sr): one (long) or one per wavelength column (wide).
     pub values: Vec<f64>,
 }
 

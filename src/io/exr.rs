@@ -21,6 +21,8 @@ pub const THETA_I_ATTRIBUTE: &str = "sbrdf.thetaI";
 pub const PHI_I_ATTRIBUTE: &str = "sbrdf.phiI";
 /// The attribute that marks a spectral EXR, and the layout version this module writes.
 pub const LAYOUT_VERSION_ATTRIBUTE: &str = "spectralLayoutVersion";
+/// The spectral-EXR layout version this module writes (the value of
+/// [`LAYOUT_VERSION_ATTRIBUTE`]).
 pub const LAYOUT_VERSION: &str = "1.0";
 /// An optional channel marking measured pixels: 0 means "not measured", anything else measured.
 pub const MASK_CHANNEL: &str = "mask";
@@ -33,10 +35,13 @@ const SPEED_OF_LIGHT: f64 = 299_792_458.0; // m/s
 /// One decoded slice: the incidence and the spectra at the pixels that hold a measurement.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Slice {
+    /// Incident polar angle θi, degrees ([`THETA_I_ATTRIBUTE`]).
     pub theta_i: f64,
+    /// Incident azimuth φi, degrees ([`PHI_I_ATTRIBUTE`]).
     pub phi_i: f64,
     /// Image size: rows (θo) × columns (φo).
     pub height: usize,
+    /// Number of columns (φo); see `height`.
     pub width: usize,
     /// Wavelengths in nm, strictly increasing.
     pub wavelengths: Vec<f64>,
@@ -60,7 +65,12 @@ pub enum ChannelKind {
     /// `T.<q>`: a reflective (non-polarised) spectral channel at this wavelength, nm.
     Reflective(f64),
     /// `S0.<q>` … `S3.<q>`: an emissive Stokes component (0 is the intensity).
-    Emissive { stokes: u8, nm: f64 },
+    Emissive {
+        /// The Stokes component, 0 to 3.
+        stokes: u8,
+        /// The wavelength, nm.
+        nm: f64,
+    },
     /// `T.<q>.<q>`: a bispectral (re-radiation) channel, which a BRDF slice cannot hold.
     Bispectral,
     /// Anything else (RGB previews, alpha, the mask): not spectral.
@@ -458,7 +468,9 @@ pub fn read_slice(name: &str, bytes: &[u8]) -> Result<Slice> {
 /// Pixel storage for [`write_slice`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PixelType {
+    /// 16-bit floats.
     Half,
+    /// 32-bit floats.
     Float,
 }
 

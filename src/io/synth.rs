@@ -11,7 +11,9 @@ pub const COLORCHECKER_CSV: &str = include_str!("../../samples/colorchecker_ohta
 /// Named reflectance spectra sampled on a common wavelength grid.
 #[derive(Debug, Clone)]
 pub struct SpectrumTable {
+    /// The common wavelength grid, nm.
     pub wavelengths: Vec<f64>,
+    /// The spectra's names (the table's column headers).
     pub names: Vec<String>,
     /// `spectra[i]` is the column of `names[i]`.
     pub spectra: Vec<Vec<f64>>,
@@ -108,10 +110,15 @@ impl SpectrumTable {
 /// The error figures of its Figs. 4 and 6 are reproduced either way to two digits.)
 #[derive(Debug, Clone)]
 pub struct Phong {
+    /// Sd(λ), the diffuse reflectance at each wavelength.
     pub diffuse: Vec<f64>,
+    /// Ss(λ), the specular reflectance at each wavelength.
     pub specular: Vec<f64>,
+    /// The diffuse weight kd.
     pub kd: f64,
+    /// The specular weight ks.
     pub ks: f64,
+    /// The Phong exponent n.
     pub n: f64,
 }
 
@@ -134,6 +141,8 @@ impl Phong {
         })
     }
 
+    /// ρ (1/sr) at incident (θi, φi) and outgoing (θo, φo), degrees, at wavelength index `w`
+    /// (into the wavelengths the spectra were sampled at).
     pub fn value(&self, incident: (f64, f64), outgoing: (f64, f64), w: usize) -> f64 {
         let (mt, mp) = mirror_deg(incident.0, incident.1);
         let c = dot(dir_from_deg(mt, mp), dir_from_deg(outgoing.0, outgoing.1)).max(0.0);
@@ -222,8 +231,11 @@ pub struct Ggx {
     pub alpha_y: f64,
     /// Angle of the first axis from the tangent x, degrees, counter-clockwise seen from above.
     pub axis_deg: f64,
+    /// The diffuse weight: the diffuse term is kd·diffuse(λ)/π.
     pub kd: f64,
+    /// The diffuse reflectance at each wavelength.
     pub diffuse: Vec<f64>,
+    /// Schlick's F0(λ) at each wavelength.
     pub f0: Vec<f64>,
 }
 
@@ -295,6 +307,8 @@ impl Ggx {
         d * g2 * f / (4.0 * ci * co)
     }
 
+    /// ρ (1/sr) at incident (θi, φi) and outgoing (θo, φo), degrees, at wavelength index `w`
+    /// (into the wavelengths the spectra were sampled at).
     pub fn value(&self, incident: (f64, f64), outgoing: (f64, f64), w: usize) -> f64 {
         let wi = dir_from_deg(incident.0, incident.1);
         let wo = dir_from_deg(outgoing.0, outgoing.1);
@@ -309,11 +323,17 @@ impl Ggx {
 /// and η(λ) = ior·(1 + 0.02·(550 − λ)/150).
 #[derive(Debug, Clone)]
 pub struct Abc {
+    /// The fit's name in the embedded table.
     pub name: String,
+    /// kD(λ) at each wavelength.
     pub kd: Vec<f64>,
+    /// A(λ) at each wavelength.
     pub a: Vec<f64>,
+    /// η(λ), the refractive index, at each wavelength.
     pub eta: Vec<f64>,
+    /// B of S = (1 + B(1 − cos θh))^(−C).
     pub b: f64,
+    /// C of S (see `b`).
     pub c: f64,
 }
 
@@ -363,6 +383,8 @@ impl Abc {
         Err(Error::Parameter(format!("no ABC fit named '{name}'")))
     }
 
+    /// ρ (1/sr) at incident (θi, φi) and outgoing (θo, φo), degrees, at wavelength index `w`
+    /// (into the wavelengths the spectra were sampled at).
     pub fn value(&self, incident: (f64, f64), outgoing: (f64, f64), w: usize) -> f64 {
         let wi = dir_from_deg(incident.0, incident.1);
         let wo = dir_from_deg(outgoing.0, outgoing.1);

@@ -89,6 +89,7 @@ pub fn mirror_deg(theta_i: f64, phi_i: f64) -> (f64, f64) {
     (theta_i, wrap_phi(phi_i + 180.0))
 }
 
+/// The dot product of two vectors.
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -105,6 +106,7 @@ pub fn angle_between(a: [f64; 3], b: [f64; 3]) -> f64 {
     s.atan2(dot(a, b))
 }
 
+/// `v` scaled to unit length; None when its length is zero or not finite.
 pub fn normalize(v: [f64; 3]) -> Option<[f64; 3]> {
     let n = dot(v, v).sqrt();
     if n.is_finite() && n > 0.0 {

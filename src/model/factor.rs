@@ -50,6 +50,7 @@ const NODES_X: [f64; 9] = [-1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0];
 pub const POLAR_MAX: f64 = 88.0;
 
 impl Feature {
+    /// The feature's code in `FACT` (`spec/FORMAT.md` §4): 1 to 6.
     pub fn code(self) -> u8 {
         match self {
             Feature::HalfAngle => 1,
@@ -61,6 +62,7 @@ impl Feature {
         }
     }
 
+    /// The feature with this code; None for an unknown code.
     pub fn from_code(c: u8) -> Option<Self> {
         Some(match c {
             1 => Feature::HalfAngle,
@@ -73,6 +75,8 @@ impl Feature {
         })
     }
 
+    /// The feature's name in reports: `"theta_h"`, `"theta_d"`, `"theta_i"`, `"theta_o"`, `"x"`,
+    /// `"theta_i*x"`.
     pub fn name(self) -> &'static str {
         match self {
             Feature::HalfAngle => "theta_h",
@@ -99,27 +103,34 @@ impl Feature {
 /// One 1-D axis: its nodes in degrees (or x), and whether it interpolates in 1/cos θ.
 #[derive(Debug, Clone, Copy)]
 pub struct Axis {
+    /// The nodes, increasing: degrees for angles, plain values for x.
     pub nodes: &'static [f64],
+    /// Whether the axis interpolates linearly in 1/cos θ rather than in the value.
     pub secant: bool,
 }
 
 impl Axis {
+    /// The θh axis: 23 nodes from 0° to 90°, dense near 0.
     pub const H: Axis = Axis {
         nodes: &NODES_H,
         secant: false,
     };
+    /// The θd axis: every 10° from 0° to 90°.
     pub const D: Axis = Axis {
         nodes: &NODES_D,
         secant: false,
     };
+    /// The θi and θo axis: 12 nodes from 0° to 88°, linear in 1/cos θ.
     pub const POLAR: Axis = Axis {
         nodes: &NODES_POLAR,
         secant: true,
     };
+    /// The coarse θi axis of the 2-D (θi, x) table: 7 nodes from 0° to 88°, linear in 1/cos θ.
     pub const POLAR_COARSE: Axis = Axis {
         nodes: &NODES_POLAR_COARSE,
         secant: true,
     };
+    /// The x axis: every 0.25 from −1 to 1.
     pub const X: Axis = Axis {
         nodes: &NODES_X,
         secant: false,
@@ -159,10 +170,15 @@ pub type FeatureRanges = [[f32; 2]; 5];
 /// The angle features of one query, clamped to the stored ranges.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FeatureValues {
+    /// θh, degrees.
     pub h: f64,
+    /// θd, degrees.
     pub d: f64,
+    /// θi, degrees.
     pub i: f64,
+    /// θo, degrees.
     pub o: f64,
+    /// x = sin θo·cos(φo − φi).
     pub x: f64,
 }
 
@@ -260,6 +276,7 @@ impl FeatureValues {
 /// per feature.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FactorComponent {
+    /// The features its tables are over, each at most once.
     pub features: Vec<Feature>,
     /// s_c at the file's wavelengths (natural log of 1/sr).
     pub spectrum: Vec<f32>,
@@ -270,6 +287,7 @@ pub struct FactorComponent {
 }
 
 impl FactorComponent {
+    /// R, the number of log terms (ranks r = 0..R), one set of tables each.
     pub fn rank(&self) -> usize {
         self.tables.len()
     }
@@ -281,13 +299,17 @@ pub struct FactorModel {
     /// The precision the parameters are stored in; the values held here are exactly the stored
     /// ones.
     pub precision: Precision,
+    /// The features' clamp ranges: what the training data covered.
     pub ranges: FeatureRanges,
+    /// The components, summed after exponentiation; 1 to [`MAX_COMPONENTS`].
     pub components: Vec<FactorComponent>,
 }
 
 /// The most components, ranks and features per component the format allows.
 pub const MAX_COMPONENTS: usize = 8;
+/// The most ranks (log terms) per component.
 pub const MAX_RANK: usize = 8;
+/// The most features per component.
 pub const MAX_FEATURES: usize = 6;
 /// exp arguments are capped here (e⁶⁰ ≈ 10²⁶ 1/sr), so a value is always finite.
 pub const ETA_MAX: f64 = 60.0;

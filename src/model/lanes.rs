@@ -79,6 +79,7 @@ impl<const N: usize> Neg for Lanes<N> {
 }
 
 impl<const N: usize> Mask<N> {
+    /// Lane-wise logical and.
     #[inline(always)]
     pub fn and(self, o: Self) -> Self {
         let mut r = self.0;
@@ -88,6 +89,7 @@ impl<const N: usize> Mask<N> {
         Mask(r)
     }
 
+    /// Lane-wise logical or.
     #[inline(always)]
     pub fn or(self, o: Self) -> Self {
         let mut r = self.0;
@@ -121,11 +123,13 @@ const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-01;
 const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
 
 impl<const N: usize> Lanes<N> {
+    /// Every lane set to `v`.
     #[inline(always)]
     pub fn splat(v: f64) -> Self {
         Lanes([v; N])
     }
 
+    /// `f` applied to each lane.
     #[inline(always)]
     pub fn map(self, f: impl Fn(f64) -> f64) -> Self {
         let mut r = self.0;
@@ -153,6 +157,7 @@ impl<const N: usize> Lanes<N> {
         Mask(r)
     }
 
+    /// The square root of each lane (IEEE, correctly rounded).
     #[inline(always)]
     pub fn sqrt(self) -> Self {
         self.map(f64::sqrt)
@@ -170,21 +175,25 @@ impl<const N: usize> Lanes<N> {
         self.zip(o, |a, b| if b > a { b } else { a })
     }
 
+    /// Lanes where `self < o` (false where either is NaN).
     #[inline(always)]
     pub fn lt(self, o: Self) -> Mask<N> {
         self.test(o, |a, b| a < b)
     }
 
+    /// Lanes where `self <= o` (false where either is NaN).
     #[inline(always)]
     pub fn le(self, o: Self) -> Mask<N> {
         self.test(o, |a, b| a <= b)
     }
 
+    /// Lanes where `self > o` (false where either is NaN).
     #[inline(always)]
     pub fn gt(self, o: Self) -> Mask<N> {
         self.test(o, |a, b| a > b)
     }
 
+    /// Lanes where `self >= o` (false where either is NaN).
     #[inline(always)]
     pub fn ge(self, o: Self) -> Mask<N> {
         self.test(o, |a, b| a >= b)
@@ -295,6 +304,7 @@ impl<const N: usize> Lanes<N> {
         Lanes::select(positive, v, special)
     }
 
+    /// Lanes where `self == o` (false where either is NaN).
     #[inline(always)]
     pub fn eq(self, o: Self) -> Mask<N> {
         self.test(o, |a, b| a == b)

@@ -50,6 +50,7 @@ pub enum LobeKind {
 }
 
 impl LobeKind {
+    /// The kind's code in the file (`RECD` lobe kind, `spec/FORMAT.md`): 1 to 5.
     pub fn code(self) -> u8 {
         match self {
             LobeKind::AngleGaussian => 1,
@@ -59,6 +60,7 @@ impl LobeKind {
             LobeKind::MicrofacetAniso => 5,
         }
     }
+    /// The kind with this file code; None for a code this version does not know.
     pub fn from_code(c: u8) -> Option<Self> {
         match c {
             1 => Some(LobeKind::AngleGaussian),
@@ -69,6 +71,7 @@ impl LobeKind {
             _ => None,
         }
     }
+    /// The kind's name as the command line and reports spell it (`"angle-gaussian"`, …).
     pub fn name(self) -> &'static str {
         match self {
             LobeKind::AngleGaussian => "angle-gaussian",
@@ -158,8 +161,11 @@ impl LobeKind {
 /// as its kind defines ([`LobeKind::amplitude_count`], [`LobeKind::param_count`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Lobe {
+    /// The lobe's shape.
     pub kind: LobeKind,
+    /// Amplitudes (1/sr), [`LobeKind::amplitude_count`] of them for the record's terms.
     pub amplitude: Vec<f32>,
+    /// Shape parameters, [`LobeKind::param_count`] of them, as [`LobeKind`] describes.
     pub params: Vec<f32>,
 }
 
@@ -175,11 +181,13 @@ pub struct IncidentRecord {
     pub sh_level: usize,
     /// Storage precision of this record's SH coefficients and lobe amplitudes.
     pub precision: Precision,
-    /// Incident direction, degrees.
+    /// Incident polar angle θi from the normal, degrees.
     pub theta_i: f32,
+    /// Incident azimuth φi, degrees.
     pub phi_i: f32,
-    /// Peak (mirror-reflection) direction found by the encoder, degrees.
+    /// Peak (mirror-reflection) direction found by the encoder: polar angle θp, degrees.
     pub theta_p: f32,
+    /// Azimuth φp of the peak direction, degrees.
     pub phi_p: f32,
     /// Relative L2 error the encoder measured against its input samples at this incidence.
     pub rel_error: f32,
@@ -187,6 +195,7 @@ pub struct IncidentRecord {
     pub critical_angle: f32,
     /// SH coefficients A_{k,j}: `terms` rows of (sh_level+1)² values, row k for spectral term k.
     pub sh: Vec<f32>,
+    /// Specular lobes, at most [`MAX_LOBES`].
     pub lobes: Vec<Lobe>,
 }
 
@@ -225,11 +234,17 @@ impl IncidentRecord {
 pub enum DirectionSet {
     /// θ = θ0 + i·Δθ (i < nθ), φ = φ0 + j·Δφ (j < nφ), in θ-major order; degrees.
     Grid {
+        /// First θ, degrees.
         theta0: f32,
+        /// θ step, degrees.
         dtheta: f32,
+        /// Number of θ values.
         ntheta: u32,
+        /// First φ, degrees.
         phi0: f32,
+        /// φ step, degrees.
         dphi: f32,
+        /// Number of φ values.
         nphi: u32,
     },
     /// Explicit (θ, φ) pairs, degrees.
@@ -237,12 +252,14 @@ pub enum DirectionSet {
 }
 
 impl DirectionSet {
+    /// The number of directions in the set.
     pub fn len(&self) -> usize {
         match self {
             DirectionSet::Grid { ntheta, nphi, .. } => *ntheta as usize * *nphi as usize,
             DirectionSet::List(v) => v.len(),
         }
     }
+    /// Whether the set holds no direction.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -273,8 +290,11 @@ impl DirectionSet {
     }
 }
 
+/// The outgoing directions at which the encoder had samples (`samp`, `spec/FORMAT.md` §3.5):
+/// distinct direction sets, and which one each incident record used.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SamplePositions {
+    /// The distinct direction sets.
     pub sets: Vec<DirectionSet>,
     /// For each incident record, the index of its set.
     pub set_of_incidence: Vec<u32>,
@@ -283,7 +303,11 @@ pub struct SamplePositions {
 /// A whole `.sbrdf` file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
+    /// The format's minor version (major is 1) as read from a file. For writing, the newest
+    /// minor version the file may use: the writer derives the version it writes from this and
+    /// the features used ([`crate::format::written_version`]).
     pub version_minor: u16,
+    /// The spectral basis, its number of terms and interval.
     pub spectral: SpectralSpace,
     /// The highest SH level any record may use.
     pub sh_level: usize,
@@ -291,9 +315,11 @@ pub struct Material {
     pub isotropic: bool,
     /// Wavelength samples of the input, nm, strictly increasing.
     pub wavelengths: Vec<f32>,
+    /// One record per stored incident direction, in file order.
     pub records: Vec<IncidentRecord>,
     /// JSON text of the `meta` chunk, if any.
     pub metadata: Option<String>,
+    /// The outgoing directions the encoder saw (`samp`), if stored.
     pub sample_positions: Option<SamplePositions>,
     /// The model shared by every incidence (`FACT`), added to the records' values.
     pub factor: Option<FactorModel>,
@@ -316,8 +342,11 @@ pub enum HeldOutProtocol {
 /// Per record, the relative L2 and log errors at samples the encoder did not see.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HeldOutErrors {
+    /// How the errors were measured.
     pub protocol: HeldOutProtocol,
+    /// Per record, the held-out relative L2 error (`spec/EVALUATION.md`, "Held-out error").
     pub rel: Vec<f32>,
+    /// Per record, the held-out log error (`spec/EVALUATION.md`, "Held-out error").
     pub log: Vec<f32>,
 }
 
@@ -339,6 +368,7 @@ impl Material {
         w.validate(self.records.len(), self.spectral.terms)
     }
 
+    /// The number of SH functions at the file's highest level, (sh_level + 1)².
     pub fn sh_count(&self) -> usize {
         sh_count(self.sh_level)
     }

@@ -82,10 +82,12 @@ impl ShBasis {
         ALL.get_or_init(|| ShBasis::new(MAX_SH_LEVEL))
     }
 
+    /// The highest SH level this basis evaluates.
     pub fn level(&self) -> usize {
         self.level
     }
 
+    /// The number of functions it evaluates, (level + 1)².
     pub fn count(&self) -> usize {
         sh_count(self.level)
     }

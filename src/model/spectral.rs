@@ -22,6 +22,7 @@ pub enum SpectralBasis {
 }
 
 impl SpectralBasis {
+    /// The basis's code in `HEAD` (`spec/FORMAT.md` §4): 1 Fourier, 2 cosine, 3 tabulated.
     pub fn code(self) -> u8 {
         match self {
             SpectralBasis::PeriodicFourier => 1,
@@ -30,6 +31,7 @@ impl SpectralBasis {
         }
     }
 
+    /// The basis with this `HEAD` code; None for an unknown code.
     pub fn from_code(code: u8) -> Option<Self> {
         match code {
             1 => Some(SpectralBasis::PeriodicFourier),
@@ -39,6 +41,7 @@ impl SpectralBasis {
         }
     }
 
+    /// The basis's name as the command line spells it: `"fourier"`, `"cosine"` or `"data"`.
     pub fn name(self) -> &'static str {
         match self {
             SpectralBasis::PeriodicFourier => "fourier",
@@ -62,10 +65,13 @@ pub struct BasisTable {
 /// A spectral basis with its number of terms and the wavelength interval it spans.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpectralSpace {
+    /// The family of basis functions.
     pub basis: SpectralBasis,
+    /// K, the number of basis functions (the most terms a record may use).
     pub terms: usize,
     /// Interval of the basis in nm. Equal ends are allowed only with one term (one wavelength).
     pub lambda_min: f64,
+    /// Upper end of the interval, nm (see `lambda_min`).
     pub lambda_max: f64,
     /// The tabulated functions, present exactly when `basis` is `Tabulated`.
     pub table: Option<BasisTable>,
@@ -278,11 +284,14 @@ pub const NODE_SUMS: usize = 128;
 /// Where a wavelength falls in a tabulated basis: node i and the fraction f toward node i + 1.
 #[derive(Debug, Clone, Copy)]
 pub struct Cell {
+    /// The node at or below the wavelength (W − 2 at or above the last node).
     pub i: usize,
+    /// The fraction of the way from node i to node i + 1, in [0, 1].
     pub f: f64,
 }
 
 impl SpectrumEvaluator {
+    /// The evaluator of a validated spectral space. Panics if a tabulated basis has no table.
     pub fn new(space: &SpectralSpace) -> Self {
         let span = space.lambda_max - space.lambda_min;
         let form = match (space.basis, &space.table) {
@@ -325,6 +334,7 @@ impl SpectrumEvaluator {
         }
     }
 
+    /// K, the number of basis functions it evaluates.
     pub fn terms(&self) -> usize {
         self.terms
     }

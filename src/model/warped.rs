@@ -45,6 +45,7 @@ pub enum TableTransform {
 }
 
 impl TableTransform {
+    /// The transform's code (the high four bits of `layout`): 0 DCT, 1 wavelet.
     pub fn code(self) -> u8 {
         match self {
             TableTransform::Dct => 0,
@@ -52,6 +53,7 @@ impl TableTransform {
         }
     }
 
+    /// The transform with this code; None for an unknown code.
     pub fn from_code(code: u8) -> Option<Self> {
         match code {
             0 => Some(TableTransform::Dct),
@@ -255,7 +257,7 @@ pub fn dct2(basis: &[f64], n: usize, x: &[f64], c: &mut [f64]) {
 
 /// Inverse of [`dct2`] given the synthesis basis (the orthonormal DCT-III with [`dct_basis`],
 /// or any [`TableTransform::synthesis`]), in the order of the spec's formula: for each row r,
-/// Σ_a basis[a][r]·Σ_b basis[b][c]·C(a, b).
+/// Σ_a `basis[a][r]`·Σ_b `basis[b][c]`·C(a, b).
 pub fn idct2(basis: &[f64], n: usize, c: &[f64], x: &mut [f64]) {
     // t[a][col] = Σ_b basis[b][col]·C[a][b]
     let mut t = vec![0.0; n * n];

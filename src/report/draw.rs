@@ -32,11 +32,15 @@ pub fn register_font() -> Result<()> {
 /// How a picture is written, from the output's extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ImageKind {
+    /// A PNG raster (`.png`).
     Png,
+    /// An SVG document (`.svg`).
     Svg,
 }
 
 impl ImageKind {
+    /// The kind `path`'s extension names (`.png` or `.svg`, any case); [`Error::Parameter`] for
+    /// any other.
     pub fn of(path: &std::path::Path) -> Result<Self> {
         match path
             .extension()
@@ -66,6 +70,7 @@ pub fn draw_error(what: &str, e: impl std::fmt::Display) -> Error {
 pub trait Figure {
     /// Width and height in pixels (SVG: user units).
     fn size(&self) -> (u32, u32);
+    /// Draws the figure onto `root`, a drawing area of [`Figure::size`].
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()>;
 }
 
@@ -198,9 +203,17 @@ fn interpolate(table: &[u32], t: f64) -> RGBColor {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ColorScale {
     /// Viridis over [lo, hi]: for values of one sign.
-    Sequential { lo: f64, hi: f64 },
+    Sequential {
+        /// The value drawn at the scale's low end.
+        lo: f64,
+        /// The value drawn at the scale's high end.
+        hi: f64,
+    },
     /// Blue–white–red over [−m, m], white at 0: for values of both signs.
-    Diverging { m: f64 },
+    Diverging {
+        /// The magnitude drawn at either end.
+        m: f64,
+    },
 }
 
 impl ColorScale {
@@ -237,6 +250,7 @@ impl ColorScale {
         Self::fit(&all)
     }
 
+    /// The values at the scale's two ends, (low, high).
     pub fn range(&self) -> (f64, f64) {
         match *self {
             ColorScale::Sequential { lo, hi } => (lo, hi),
@@ -250,6 +264,7 @@ impl ColorScale {
         ((v - lo) / (hi - lo)).clamp(0.0, 1.0)
     }
 
+    /// The colour of `v` (clamped to the scale's range).
     pub fn color(&self, v: f64) -> RGBColor {
         let t = self.position(v);
         match self {
@@ -259,8 +274,6 @@ impl ColorScale {
     }
 }
 
-/// Tick labels for values spaced about `step` apart: enough decimals to tell neighbours apart,
-/// scientific notation for very large or small magnitudes.
 /// A fraction as a percentage label for log axes: 1 → "100%", 0.001 → "0.1%".
 pub fn percent_label(v: f64) -> String {
     let p = 100.0 * v;
@@ -275,6 +288,8 @@ pub fn percent_label(v: f64) -> String {
     format!("{p:.decimals$}%")
 }
 
+/// Tick labels for values spaced about `step` apart: enough decimals to tell neighbours apart,
+/// scientific notation for very large or small magnitudes.
 pub fn tick_label(v: f64, step: f64) -> String {
     let a = v.abs().max(step.abs());
     if v.abs() < 1e-3 * step.abs() {
@@ -296,7 +311,9 @@ pub fn tick_label(v: f64, step: f64) -> String {
 /// there is nothing to show.
 #[derive(Debug, Clone)]
 pub struct HemisphereMap {
+    /// Number of θo bands.
     pub rows: usize,
+    /// Number of φo columns.
     pub columns: usize,
     /// rows × columns values, row-major.
     pub values: Vec<f64>,

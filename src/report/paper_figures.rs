@@ -47,6 +47,7 @@ pub struct PaperFiguresOptions {
 pub struct PaperFigures {
     /// The markdown table (also `table.md`).
     pub table: String,
+    /// The paths of every file written.
     pub files: Vec<PathBuf>,
 }
 
@@ -96,7 +97,9 @@ pub fn direct_options() -> EncodeOptions {
 /// Error and size of one encode.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Outcome {
+    /// Relative L2 error over the input's samples.
     pub error: f64,
+    /// Size of the written file, bytes.
     pub bytes: usize,
     /// The record's critical angle (paper mode), degrees.
     pub critical_angle: f64,
@@ -113,20 +116,28 @@ fn outcome(e: &Encoded) -> Result<Outcome> {
 /// One Fig. 4 material in the three modes.
 #[derive(Debug, Clone)]
 pub struct Fig4Row {
+    /// The Phong material's ks (with kd = 1).
     pub ks: f64,
+    /// The Phong exponent n.
     pub n: f64,
+    /// SH only ([`direct_options`]).
     pub direct: Outcome,
+    /// The paper's method ([`EncodeOptions::paper`]).
     pub paper: Outcome,
+    /// The encoder's defaults.
     pub default: Outcome,
 }
 
 /// One Fig. 6 curve.
 #[derive(Debug, Clone)]
 pub struct Fig6Curve {
+    /// The Phong material's ks (with kd = 1).
     pub ks: f64,
+    /// The Phong exponent n.
     pub n: f64,
     /// (γ, paper-mode error); γ the encoder refuses (too few background samples) are left out.
     pub points: Vec<(f64, f64)>,
+    /// The error of the encoder's defaults on the same material, for comparison.
     pub default_error: f64,
 }
 
@@ -134,22 +145,34 @@ pub struct Fig6Curve {
 /// and the reconstructions every 2 nm for drawing.
 #[derive(Debug, Clone)]
 pub struct Fig7Panel {
+    /// The outgoing direction (θo, φo), degrees.
     pub outgoing: (f64, f64),
+    /// The error the paper prints for this direction.
     pub published: f64,
+    /// The material's spectrum at the 31 wavelengths (400–700 nm every 10 nm), 1/sr.
     pub original: Vec<f64>,
+    /// The paper's method's reconstruction at those wavelengths.
     pub paper: Vec<f64>,
+    /// The default encoder's reconstruction at those wavelengths.
     pub default: Vec<f64>,
+    /// The paper's method's reconstruction every 2 nm from 400 to 700 nm.
     pub paper_dense: Vec<f64>,
+    /// The default encoder's reconstruction every 2 nm from 400 to 700 nm.
     pub default_dense: Vec<f64>,
+    /// Relative L2 error of `paper` against `original`.
     pub paper_error: f64,
+    /// Relative L2 error of `default` against `original`.
     pub default_error: f64,
 }
 
 /// Everything computed, before writing.
 #[derive(Debug, Clone)]
 pub struct PaperData {
+    /// Fig. 4: one row per material.
     pub fig4: Vec<Fig4Row>,
+    /// Fig. 6: error against critical angle, one curve per material.
     pub fig6: Vec<Fig6Curve>,
+    /// Fig. 7: the four directions of [`FIG7`].
     pub fig7: Vec<Fig7Panel>,
     /// Paper mode's automatic critical angle for the Fig. 7 material.
     pub fig7_critical_angle: f64,

@@ -21,8 +21,11 @@ use rayon::prelude::*;
 /// 45°, 90° and 180° away in φ, as in the paper's Fig. 7).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlotOptions {
+    /// The requested incidence (θi, φi), degrees.
     pub incident: (f64, f64),
+    /// Index k of the spectral coefficient shown.
     pub coefficient: usize,
+    /// Outgoing directions (θo, φo) for the spectrum panels, degrees.
     pub outgoing: Vec<(f64, f64)>,
     /// Picture kind: sets the raster (finer for PNG; coarser, with merged cells, for SVG).
     pub kind: ImageKind,
@@ -32,9 +35,15 @@ pub struct PlotOptions {
 /// where a reference was given, and their relative error.
 #[derive(Debug, Clone)]
 pub struct SpectrumPanel {
+    /// The outgoing direction (θo, φo) shown, degrees (moved to the nearest reference sample
+    /// when there is a reference).
     pub outgoing: (f64, f64),
+    /// The panel's legend: its number, the direction, and whether it is the peak.
     pub label: String,
+    /// Wavelengths (nm) of `reconstructed`: the file's range about every nm, plus the
+    /// reference's wavelengths.
     pub wavelengths: Vec<f64>,
+    /// The decoded ρ (1/sr) at `wavelengths`.
     pub reconstructed: Vec<f64>,
     /// (wavelengths, values) of the reference sample at this direction.
     pub original: Option<(Vec<f64>, Vec<f64>)>,
@@ -45,7 +54,9 @@ pub struct SpectrumPanel {
 /// Everything `sbrdf plot` draws, computed (see [`coefficient_plot`]).
 #[derive(Debug, Clone)]
 pub struct CoefficientPlot {
+    /// The picture's title: the file, coefficient, incidence and record.
     pub title: String,
+    /// The record's model in one line: basis, terms, SH level, lobes, precision, stored error.
     pub subtitle: String,
     /// The coefficient's name: a0, a1, b1, … for the paper's Fourier basis, c0, c1, … otherwise.
     pub name: String,
@@ -62,8 +73,11 @@ pub struct CoefficientPlot {
     pub original: Option<HemisphereMap>,
     /// The record's peak direction (θp, φp).
     pub peak_direction: (f64, f64),
+    /// The spectrum panels, one per outgoing direction.
     pub spectra: Vec<SpectrumPanel>,
+    /// The record's lobe kinds joined by " + " ("no lobe" without).
     pub lobes: String,
+    /// The record's SH level.
     pub sh_level: usize,
     svg_levels: Option<usize>,
 }

@@ -30,7 +30,9 @@ impl Default for PreviewOptions {
 /// A rendered preview: 8-bit sRGB pixels, row-major, top row first.
 #[derive(Debug, Clone)]
 pub struct Preview {
+    /// Width and height in pixels (the picture is square).
     pub size: u32,
+    /// size × size pixels of 3 bytes (R, G, B).
     pub rgb: Vec<u8>,
     /// The factor applied to luminance (Y in units where a white Lambertian surface lit head-on
     /// by the light has Y = 1) before the tone curve.
@@ -41,6 +43,7 @@ pub struct Preview {
 }
 
 impl Preview {
+    /// The preview encoded as a PNG file's bytes.
     pub fn png(&self) -> Result<Vec<u8>> {
         encode_png(&self.rgb, self.size, self.size)
     }

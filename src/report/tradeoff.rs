@@ -18,10 +18,15 @@ use std::time::Instant;
 /// One point of the sweep: the encode options that matter, as the CLI names them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Setting {
+    /// `--basis`.
     pub basis: SpectralBasis,
+    /// `--terms`.
     pub terms: usize,
+    /// `--sh-level` (with a budget, the largest level tried).
     pub sh_level: usize,
+    /// `--peak`.
     pub peak: PeakMode,
+    /// `--precision`.
     pub precision: Precision,
     /// `--max-error` (joint fit only; written with `--best-effort`).
     pub max_error: Option<f64>,
@@ -50,6 +55,7 @@ impl Setting {
         }
     }
 
+    /// The peak mode as `--peak` spells it: `"joint"`, `"paper"` or `"none"`.
     pub fn peak_name(&self) -> &'static str {
         match self.peak {
             PeakMode::Joint => "joint",
@@ -145,14 +151,19 @@ pub fn sweep(quick: bool, wavelengths: usize) -> Vec<Setting> {
 /// One measured setting.
 #[derive(Debug, Clone)]
 pub struct Row {
+    /// The setting measured.
     pub setting: Setting,
+    /// Size of the written file, bytes.
     pub bytes: usize,
     /// Relative L2 error over every input sample, and the largest absolute difference (1/sr).
     pub rel_l2_error: f64,
+    /// The largest absolute difference over every input sample, 1/sr (see `rel_l2_error`).
     pub max_abs_error: f64,
+    /// Wall-clock time of the encode and write, milliseconds.
     pub encode_ms: f64,
     /// Nanoseconds per `Decoder::eval` query: one wavelength, and the file's whole spectrum.
     pub eval_ns_1wl: f64,
+    /// Nanoseconds per `Decoder::eval` query over the file's whole spectrum (see `eval_ns_1wl`).
     pub eval_ns_spectrum: f64,
     /// On the size/error Pareto front: no other row is at least as small and as accurate and
     /// better in one.

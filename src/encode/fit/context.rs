@@ -15,9 +15,13 @@ use nalgebra::DMatrix;
 pub struct FitContext {
     /// Options of the joint fit (used when `peak` is [`PeakMode::Joint`]).
     pub joint: JointOptions,
+    /// The file's spectral basis, terms and interval.
     pub spectral: SpectralSpace,
+    /// The SH basis up to the file's SH level.
     pub sh: ShBasis,
+    /// How the specular peak is represented.
     pub peak: PeakMode,
+    /// The critical angle of the paper's split ([`PeakMode::Paper`]).
     pub critical_angle: CriticalAngle,
     /// K×W projection matrix (the paper's Eq. 5 by the trapezoidal rule).
     pub(super) projection: DMatrix<f64>,
@@ -30,9 +34,11 @@ pub struct FitContext {
 pub struct Fitted {
     /// False when an error budget was given and no model met it.
     pub met: bool,
+    /// The fitted record.
     pub record: IncidentRecord,
     /// Σ(ρ̂ − ρ)² and Σρ² over this incidence's samples.
     pub sq_error: f64,
+    /// Σρ² over this incidence's samples (see `sq_error`).
     pub sq_reference: f64,
     /// The record's leave-one-out error at its samples (the joint fit; None for the paper's
     /// split, whose peak and critical angle are not linear in the samples).
@@ -43,6 +49,9 @@ pub struct Fitted {
 }
 
 impl FitContext {
+    /// The context for a file with this spectral space, input `wavelengths` (nm), SH level and
+    /// peak mode; the joint fit's options start as Gaussian lobes up to `sh_level`, f32, no
+    /// budget (the encoder sets its own).
     pub fn new(
         spectral: SpectralSpace,
         wavelengths: &[f64],

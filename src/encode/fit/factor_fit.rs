@@ -23,7 +23,9 @@ use nalgebra::{DMatrix, DVector};
 /// One component to fit: its features and rank.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ComponentSpec {
+    /// The angle features its tables are over.
     pub features: Vec<Feature>,
+    /// Its rank R (number of log terms), 1 to [`crate::model::factor::MAX_RANK`].
     pub rank: usize,
 }
 
@@ -50,12 +52,17 @@ pub fn default_components() -> Vec<ComponentSpec> {
 /// What to fit and how hard to smooth.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FactorOptions {
+    /// The components to fit ([`default_components`] by default).
     pub components: Vec<ComponentSpec>,
     /// Candidate table smoothness strengths; with more than one, chosen by `inner_folds`-fold
     /// cross-validation on the training data (score log² + rel²), ties to the larger.
     pub smoothness: Vec<f64>,
+    /// Folds of the inner cross-validation that chooses the smoothness (below 2: the first
+    /// candidate is taken).
     pub inner_folds: usize,
+    /// The precision the model's parameters are stored in.
     pub precision: Precision,
+    /// Most Levenberg–Marquardt iterations per fit.
     pub max_iterations: usize,
 }
 
@@ -82,7 +89,9 @@ const RIDGE: f64 = 1e-6;
 /// A fitted model, the smoothness it was fitted with, and the cross-validation behind the choice.
 #[derive(Debug, Clone)]
 pub struct FactorFit {
+    /// The fitted model.
     pub model: FactorModel,
+    /// The table smoothness strength it was fitted with.
     pub smoothness: f64,
     /// Per candidate: (μ, inner held-out sums per incidence); empty with one candidate.
     pub inner: Vec<(f64, Vec<ErrorSums>)>,

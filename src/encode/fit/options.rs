@@ -21,6 +21,7 @@ pub enum PeakMode {
 pub enum CriticalAngle {
     /// Chosen per incident direction by minimising the relative error (the paper's Fig. 6).
     Auto,
+    /// This angle (degrees) for every incident direction.
     Fixed(f64),
 }
 
@@ -52,6 +53,7 @@ impl LobeFamily {
         }
     }
 
+    /// The family's name as the command line spells it (`"gaussian"`, `"microfacet"`, …).
     pub fn name(self) -> &'static str {
         match self {
             LobeFamily::Gaussian => "gaussian",
@@ -76,7 +78,7 @@ pub struct JointOptions {
     /// Relative error budget per incidence, if any.
     pub max_error: Option<f64>,
     /// With a budget, also hold each candidate to it at samples the fit did not see: a model is
-    /// taken only when its leave-one-out error is within [`HELD_OUT_SLACK`] times the budget;
+    /// taken only when its leave-one-out error is within `HELD_OUT_SLACK` (1.5) times the budget;
     /// when none is, the model with the lowest leave-one-out error (never bytes spent fitting
     /// noise). Without it, the budget is met at the samples alone.
     pub held_out: bool,

@@ -41,16 +41,22 @@ pub enum Channels {
     /// `rgb`: linear sRGB triplets (channel 0 = R).
     Rgb,
     /// `spectra` at these wavelengths (nm).
-    Spectral { wavelengths: Vec<f32> },
+    Spectral {
+        /// The wavelength of each channel, nm.
+        wavelengths: Vec<f32>,
+    },
 }
 
 /// A validated RGL measurement.
 #[derive(Debug, Clone)]
 pub struct RglBsdf {
+    /// The file's `description` field (UTF-8, invalid bytes replaced).
     pub description: String,
     /// Stored incidences, radians, as in the file.
     pub theta_i: Vec<f32>,
+    /// Stored incident azimuths φi, radians, as in the file (strictly increasing).
     pub phi_i: Vec<f32>,
+    /// What each grid node carries: RGB or spectra.
     pub channels: Channels,
     /// The `jacobian` flag: multiply by NDF(u)/(4 σ(ωi)).
     pub jacobian: bool,
@@ -74,10 +80,13 @@ pub struct RglBsdf {
 /// One grid node mapped to a real outgoing direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cell {
+    /// The node's row in the grid (second-to-last tensor axis).
     pub row: u32,
+    /// The node's column in the grid (last tensor axis).
     pub col: u32,
     /// Outgoing direction, degrees (sbrdf convention).
     pub theta_o: f64,
+    /// Outgoing azimuth φo, degrees, in [0, 360).
     pub phi_o: f64,
     /// The same as a unit vector (z = cos θo).
     pub wo: [f64; 3],
@@ -88,16 +97,21 @@ pub struct Cell {
 /// Every grid node of one stored incidence.
 #[derive(Debug, Clone)]
 pub struct Incidence {
+    /// Index of the stored θi in [`RglBsdf::theta_i`].
     pub theta_index: usize,
+    /// Index of the stored φi in [`RglBsdf::phi_i`].
     pub phi_index: usize,
     /// Degrees; φi in [0, 360).
     pub theta_i: f64,
+    /// Incident azimuth, degrees (see `theta_i`).
     pub phi_i: f64,
+    /// The incident direction as a unit vector (toward the light, z = normal).
     pub wi: [f64; 3],
     /// Row-major (row = second-to-last tensor axis, col = last).
     pub cells: Vec<Cell>,
     /// `cells.len() × channels` BRDF values (1/sr), cell-major.
     pub values: Vec<f64>,
+    /// Values per cell: 3 for RGB, else the number of wavelengths.
     pub channels: usize,
 }
 
@@ -107,9 +121,13 @@ pub struct Incidence {
 pub struct IncidenceSamples {
     /// The stored incidence's (θi, φi) indices in the file.
     pub index: [usize; 2],
+    /// Incident polar angle θi, degrees.
     pub theta_i: f64,
+    /// Incident azimuth φi, degrees, in [0, 360).
     pub phi_i: f64,
+    /// Distinct outgoing directions (θo, φo) in degrees, sorted.
     pub directions: Vec<[f64; 2]>,
+    /// `directions.len()` × channels BRDF values (1/sr), direction-major.
     pub values: Vec<f64>,
     /// Per direction, the grid node (row, column) it came from (the first of a merged group).
     pub nodes: Vec<[u32; 2]>,
@@ -341,6 +359,7 @@ impl RglBsdf {
         &self.values[base..base + nc * r * r]
     }
 
+    /// Values per grid node: 3 for RGB, else the number of wavelengths.
     pub fn channel_count(&self) -> usize {
         match &self.channels {
             Channels::Rgb => 3,
@@ -353,6 +372,7 @@ impl RglBsdf {
         self.values_name
     }
 
+    /// Whether the measurement is RGB (`rgb`) rather than spectral.
     pub fn is_rgb(&self) -> bool {
         self.channels == Channels::Rgb
     }
@@ -522,6 +542,9 @@ impl RglBsdf {
         Ok(e.eval(theta_o, phi_o, &mut out).then_some(out))
     }
 
+    /// An evaluator of stored incidence (t, p) (indices into `theta_i`, `phi_i`) at arbitrary
+    /// outgoing directions. Errors: indices out of range, a grazing incidence (cos θi ≤ 0), or a
+    /// VNDF slice that integrates to zero.
     pub fn evaluator(&self, t: usize, p: usize) -> Result<Evaluator<'_>> {
         self.check_indices(t, p)?;
         Ok(Evaluator {

@@ -15,56 +15,120 @@ use std::fmt;
 pub enum RglError {
     /// The bytes end before `what` (which starts at byte `at` and needs `need` bytes).
     Truncated {
+        /// What was being read.
         what: String,
+        /// Its byte offset.
         at: u64,
+        /// Bytes it needs.
         need: u64,
+        /// Bytes left in the file.
         have: u64,
     },
     /// The first 12 bytes are not `tensor_file\0`.
     BadMagic,
     /// Version bytes at offset 12 other than 1.0.
-    BadVersion { major: u8, minor: u8 },
+    BadVersion {
+        /// Byte 12.
+        major: u8,
+        /// Byte 13.
+        minor: u8,
+    },
     /// The field count at byte 14 cannot fit in the bytes that follow.
-    TooManyFields { count: u32, max: u64 },
+    TooManyFields {
+        /// The stored count.
+        count: u32,
+        /// The most field headers the remaining bytes could hold.
+        max: u64,
+    },
     /// A field name that is not UTF-8.
-    BadName { index: u32, at: u64 },
+    BadName {
+        /// The field's position among the headers, from 0.
+        index: u32,
+        /// Byte offset of the name.
+        at: u64,
+    },
     /// A dtype code outside Mitsuba's `Struct::Type` 1..=11.
-    UnknownDType { field: String, at: u64, code: u8 },
+    UnknownDType {
+        /// The field's name.
+        field: String,
+        /// Byte offset of the dtype code.
+        at: u64,
+        /// The code found.
+        code: u8,
+    },
     /// A field whose element count × element size overflows.
-    SizeOverflow { field: String, at: u64 },
+    SizeOverflow {
+        /// The field's name.
+        field: String,
+        /// Byte offset of its shape.
+        at: u64,
+    },
     /// A field whose data lies (partly) outside the file.
     DataOutOfBounds {
+        /// The field's name.
         field: String,
+        /// Its data's byte offset.
         offset: u64,
+        /// Its data's length in bytes.
         len: u64,
+        /// The file's length in bytes.
         file_len: u64,
     },
     /// The same field name twice (header of the second at `at`).
-    DuplicateField { field: String, at: u64 },
-    /// A field an RGL BSDF needs is absent.
-    MissingField { field: String },
-    WrongDType {
+    DuplicateField {
+        /// The repeated name.
         field: String,
+        /// Byte offset of the second header.
         at: u64,
+    },
+    /// A field an RGL BSDF needs is absent.
+    MissingField {
+        /// The missing field's name.
+        field: String,
+    },
+    /// A field an RGL BSDF needs has another element type than it expects.
+    WrongDType {
+        /// The field's name.
+        field: String,
+        /// Byte offset of its data.
+        at: u64,
+        /// The type an RGL BSDF stores there.
         expected: DType,
+        /// The type the file has.
         found: DType,
     },
+    /// A field an RGL BSDF needs has another shape than it expects.
     WrongShape {
+        /// The field's name.
         field: String,
+        /// Byte offset of its data.
         at: u64,
+        /// The expected shape, in words.
         expected: String,
+        /// The shape the file has.
         found: Vec<u64>,
     },
     /// A value that makes no sense (`at` is the byte offset of the element).
     BadData {
+        /// The field's name.
         field: String,
+        /// Byte offset of the element.
         at: u64,
+        /// What is wrong with it.
         reason: String,
     },
     /// An incidence index out of range or at/under grazing (cos θi ≤ 0).
-    BadIncidence { reason: String },
+    BadIncidence {
+        /// Which, and why.
+        reason: String,
+    },
     /// The RGB → spectrum fit could not reproduce a colour within tolerance.
-    Upsample { rgb: [f64; 3], rel_error: f64 },
+    Upsample {
+        /// The colour, linear sRGB.
+        rgb: [f64; 3],
+        /// The best fit's relative error (+∞ for a colour that was not finite).
+        rel_error: f64,
+    },
 }
 
 impl fmt::Display for RglError {
@@ -158,25 +222,38 @@ impl fmt::Display for RglError {
 
 impl std::error::Error for RglError {}
 
+/// `std::result::Result` with [`RglError`].
 pub type Result<T> = std::result::Result<T, RglError>;
 
 /// Element types (Mitsuba `Struct::Type` codes 1..=11).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DType {
+    /// Code 1: `uint8`.
     U8,
+    /// Code 2: `int8`.
     I8,
+    /// Code 3: `uint16`.
     U16,
+    /// Code 4: `int16`.
     I16,
+    /// Code 5: `uint32`.
     U32,
+    /// Code 6: `int32`.
     I32,
+    /// Code 7: `uint64`.
     U64,
+    /// Code 8: `int64`.
     I64,
+    /// Code 9: `float16`.
     F16,
+    /// Code 10: `float32`.
     F32,
+    /// Code 11: `float64`.
     F64,
 }
 
 impl DType {
+    /// The type with this `Struct::Type` code; None outside 1..=11.
     pub fn from_code(code: u8) -> Option<DType> {
         use DType::*;
         Some(match code {
@@ -195,6 +272,7 @@ impl DType {
         })
     }
 
+    /// Bytes per element: 1, 2, 4 or 8.
     pub fn size(self) -> u64 {
         use DType::*;
         match self {
@@ -228,8 +306,11 @@ impl fmt::Display for DType {
 /// One field's header: where its data is and how it is laid out (C order, little endian).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FieldInfo {
+    /// The field's name.
     pub name: String,
+    /// Its element type.
     pub dtype: DType,
+    /// Its shape, outermost axis first (C order).
     pub shape: Vec<u64>,
     /// Byte offset of the data in the file.
     pub offset: u64,
@@ -240,6 +321,7 @@ pub struct FieldInfo {
 }
 
 impl FieldInfo {
+    /// The number of elements (data length / element size).
     pub fn count(&self) -> u64 {
         self.len / self.dtype.size()
     }
@@ -249,7 +331,9 @@ impl FieldInfo {
 #[derive(Debug, Clone)]
 pub struct TensorFile<'a> {
     bytes: &'a [u8],
+    /// (major, minor) from bytes 12 and 13; always (1, 0) once parsed.
     pub version: (u8, u8),
+    /// The field headers, in file order.
     pub fields: Vec<FieldInfo>,
 }
 
@@ -370,6 +454,7 @@ impl<'a> TensorFile<'a> {
         })
     }
 
+    /// The field named `name`, if present.
     pub fn field(&self, name: &str) -> Option<&FieldInfo> {
         self.fields.iter().find(|f| f.name == name)
     }

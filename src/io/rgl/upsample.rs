@@ -26,7 +26,9 @@ pub fn spectrum_to_linear_srgb(s: &[f64]) -> [f64; 3] {
 /// s(λ) = scale · S(c0 t² + c1 t + c2), t = (λ − λ0)/(λ1 − λ0), S(x) = ½ + x/(2√(1+x²)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SigmoidSpectrum {
+    /// The factor k in front of the sigmoid: 0 ≤ s(λ) ≤ k.
     pub scale: f64,
+    /// The polynomial's coefficients c0, c1, c2.
     pub coeffs: [f64; 3],
     /// λ0, λ1 (nm) of the normalisation of t.
     pub range_nm: [f64; 2],
@@ -40,6 +42,7 @@ fn sigmoid(x: f64) -> f64 {
 }
 
 impl SigmoidSpectrum {
+    /// s(λ) at `nm` nanometres.
     pub fn eval(&self, nm: f64) -> f64 {
         let t = (nm - self.range_nm[0]) / (self.range_nm[1] - self.range_nm[0]);
         let [c0, c1, c2] = self.coeffs;
@@ -50,6 +53,7 @@ impl SigmoidSpectrum {
 /// A fitted spectrum and how well it reproduces its target.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fit {
+    /// The fitted spectrum.
     pub spectrum: SigmoidSpectrum,
     /// The colour fitted (the input with negative components set to 0).
     pub target: [f64; 3],

@@ -12,16 +12,18 @@ use rayon::prelude::*;
 /// What reading an RGL file for warped tables found, beside the input itself.
 #[derive(Debug, Clone)]
 pub struct WarpedRead {
+    /// The input for [`crate::encode::warped`].
     pub input: WarpedInput,
     /// The file's description field.
     pub description: String,
     /// Whether the spectra were made from RGB, and how many colours had negative components
     /// set to 0 first.
     pub upsampled: bool,
+    /// The number of RGB colours whose negative components were set to 0 (see `upsampled`).
     pub clamped: usize,
 }
 
-/// Reads `bytes` (file `name`) for warped tables. `Ok(None)` with the reason when the file is
+/// Reads `bytes` (file `name`) for warped tables. `Ok(Err(reason))` when the file is
 /// not one warped tables hold (anisotropic, several azimuths, no `jacobian` flag).
 pub fn read_warped(
     name: &str,
