@@ -8,7 +8,7 @@
  * in nm. Below the horizon (wi.z < 0 or wo.z < 0) the value is 0; it is never negative. A handle
  * is immutable once open: it may be shared by any number of threads. No function lets a Rust
  * panic cross into C.
- * Kept in sync with src/capi.rs by tests/c_api.rs.
+ * Kept in sync with src/decode/capi.rs by tests/c_api.rs.
  */
 #ifndef SBRDF_H
 #define SBRDF_H

@@ -26,4 +26,6 @@ mod warped;
 pub use at_wavelength::AtWavelength;
 pub use decoder::Decoder;
 pub use draw::Sample;
+// The encoder integrates the warped tables' VNDF as the decoder does.
+#[cfg(feature = "encode")]
 pub(crate) use warped::vndf_totals;

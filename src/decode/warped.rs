@@ -71,6 +71,7 @@ impl Grid {
 
 /// The VNDF totals I(θ) of `spec/EVALUATION.md`, "Warped tables", for an NDF on a G × G grid
 /// at each θ (radians): what σ is c times (the encoder finds c from a measurement's own σ).
+#[cfg(feature = "encode")]
 pub(crate) fn vndf_totals(ndf: &[f32], g: usize, thetas: &[f64]) -> Vec<f64> {
     let grid = Grid::new(ndf, g);
     let mut p = vec![0.0; g * g];
