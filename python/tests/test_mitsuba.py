@@ -135,6 +135,14 @@ INTEGRATORS = {
 }
 
 
+# Cosine sampling's per-pixel variance over the file's, as docs/guide/renderers.md states it
+# (None: any other variant).
+STATED_VARIANCE_RATIO = {
+    "bsdf_only": {"scalar_spectral": 3.1, "llvm_ad_spectral": 3.5, "llvm_ad_rgb": 5.0, None: 3.1},
+    "path_mis": {None: 1.9},
+}
+
+
 @pytest.mark.parametrize("integrator", list(INTEGRATORS))
 @pytest.mark.parametrize("variant", ["scalar_spectral", "llvm_ad_spectral", "llvm_ad_rgb"])
 def test_importance_sampling_beats_cosine(variant, integrator, encoded):
@@ -160,8 +168,13 @@ def test_importance_sampling_beats_cosine(variant, integrator, encoded):
     bias = float(abs(mean_file - mean_cos) / mean_cos)
     record(f"sampling/{variant}/{integrator}", {"variance_cosine_over_file": ratio,
                                                 "image_mean_rel_diff": bias})
-    assert bias <= 0.01, f"importance-sampled image mean off by {bias:.4f}"
-    assert ratio >= 1.0, f"the file's sampling has {1 / ratio:.2f}× the variance of cosine"
+    # The guide's figures (renderers.md): means within 0.07–0.2%, variance ratios 3.1× / 3.5× /
+    # 5.0× with BSDF sampling alone and 1.9–2.2× with MIS, each held at 1.25× (the seeds are
+    # fixed, so a run repeats them).
+    stated = STATED_VARIANCE_RATIO[integrator].get(variant, STATED_VARIANCE_RATIO[integrator][None])
+    assert bias <= 1.25 * 0.002, f"importance-sampled image mean off by {bias:.4f}"
+    assert ratio >= stated / 1.25, (
+        f"cosine sampling's variance is {ratio:.2f}× the file's; the guide states {stated}×")
 
 
 def test_plugin_conventions_at_single_directions(encoded):
