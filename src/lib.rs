@@ -21,6 +21,29 @@
 //! | [`io`] | `cli` | files in and out: CSV, EXR, atomic output, synthetic materials |
 //! | [`report`] | `cli` | pictures and studies: plots, previews, paper figures, the trade-off |
 //!
+//! ## Quick start
+//!
+//! Open a file, evaluate ρ at three wavelengths and draw a direction (the README's example;
+//! `ggx.sbrdf` is what `sbrdf encode` wrote):
+//!
+//! ```no_run
+//! fn main() -> sbrdf::Result<()> {
+//!     let dec = sbrdf::Decoder::open("ggx.sbrdf")?;
+//!     let (wi, wo) = ([0.2588, 0.0, 0.9659], [-0.2588, 0.0, 0.9659]); // unit vectors, z = normal
+//!     let mut rho = [0.0f32; 3];
+//!     dec.eval(wi, wo, &[450.0, 550.0, 650.0], &mut rho); // 1/sr; no allocation
+//!     let s = dec.sample(wi, [0.3, 0.7]); // importance sampling: wo, pdf
+//!     println!(
+//!         "{rho:?} {:?} {} bytes resident",
+//!         s.map(|s| s.pdf),
+//!         dec.resident_bytes()
+//!     );
+//!     Ok(())
+//! }
+//! ```
+//!
+//! Batches, one wavelength at a time ([`Decoder::at`]), colour and memory: `docs/guide/library.md`.
+//!
 //! Conventions: `spec/EVALUATION.md`; byte format: `spec/FORMAT.md`.
 
 #![warn(missing_docs)]

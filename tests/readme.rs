@@ -18,3 +18,31 @@ fn the_readme_rust_example_is_the_compiled_example() {
         "README.md's Rust block and examples/readme.rs differ"
     );
 }
+
+#[test]
+fn the_crate_documentation_opens_with_the_readme_rust_example() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let start = readme.find("```rust\n").unwrap() + "```rust\n".len();
+    let block = &readme[start..start + readme[start..].find("```").unwrap()];
+    let lib = std::fs::read_to_string(root.join("src/lib.rs")).unwrap();
+    let docs: String = lib
+        .lines()
+        .take_while(|l| l.starts_with("//!"))
+        .map(|l| {
+            format!(
+                "{}\n",
+                l.trim_start_matches("//!").strip_prefix(' ').unwrap_or("")
+            )
+        })
+        .collect();
+    let start = docs
+        .find("```no_run\n")
+        .expect("a code block in the crate docs")
+        + 10;
+    let code = &docs[start..start + docs[start..].find("```").unwrap()];
+    assert_eq!(
+        code, block,
+        "src/lib.rs's example and README.md's Rust block differ"
+    );
+}
