@@ -88,6 +88,17 @@ impl<'a> AtWavelength<'a> {
 
     /// ρ for many pairs at this wavelength: [`crate::Decoder::eval_batch`] with one wavelength
     /// (the same slices, errors and bits).
+    ///
+    /// ```
+    /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
+    /// let at = decoder.at(550.0);
+    /// let wi = [[0.5f32, 0.0, 0.866]; 2];
+    /// let wo = [[-0.5f32, 0.0, 0.866], [0.0, 0.5, 0.866]];
+    /// let mut out = [0.0f32; 2];
+    /// at.eval_batch(&wi, &wo, &mut out)?;
+    /// assert_eq!(out[0], at.eval(wi[0], wo[0])); // the same bits as one at a time
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn eval_batch(&self, wi: &[[f32; 3]], wo: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
         super::batch::checked(self.evaluator, wi, wo, &[self.wavelength], out)
     }

@@ -70,6 +70,14 @@ impl Decoder {
     }
 
     /// ρ(wi, wo) as linear sRGB under `illuminant` (D65 is sRGB's own white).
+    ///
+    /// ```
+    /// use sbrdf::decode::color::Illuminant;
+    /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
+    /// let rgb = decoder.eval_linear_srgb([0.5, 0.0, 0.866], [-0.5, 0.0, 0.866], Illuminant::D65);
+    /// assert!(rgb.iter().all(|c| c.is_finite()));
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn eval_linear_srgb(&self, wi: [f32; 3], wo: [f32; 3], illuminant: Illuminant) -> [f64; 3] {
         xyz_to_linear_srgb(self.eval_xyz(wi, wo, illuminant))
     }

@@ -58,6 +58,19 @@ impl Decoder {
     /// Errors: [`Error::Format`] for a damaged file (or warped tables that cannot be prepared),
     /// [`Error::Unsupported`] for one that needs a newer reader, [`Error::LimitsExceeded`] for
     /// one above `limits`.
+    ///
+    /// ```
+    /// let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf")).unwrap();
+    /// // Untrusted input: refuse anything larger than 512 bytes before parsing it (this file is 1013).
+    /// let small = sbrdf::Limits { max_file_bytes: 512, ..Default::default() };
+    /// assert!(matches!(
+    ///     sbrdf::Decoder::from_bytes_with_limits(&bytes, &small),
+    ///     Err(sbrdf::Error::LimitsExceeded(_))
+    /// ));
+    /// let decoder = sbrdf::Decoder::from_bytes_with_limits(&bytes, &sbrdf::Limits::default())?;
+    /// assert_eq!(decoder.material().records.len(), 3);
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn from_bytes_with_limits(bytes: &[u8], limits: &Limits) -> Result<Self> {
         // The reader validated the material: only its resident form is kept.
         let material = read_material(bytes, limits)?;
@@ -150,6 +163,14 @@ impl Decoder {
     /// per allocation over about a dozen allocations, is not counted). An opened file starts
     /// at its resident form; the importance-sampling weights ([`Decoder::prepare_sampling`])
     /// and the [`Material`] view ([`Decoder::material`]) add to it once used.
+    ///
+    /// ```
+    /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
+    /// let before = decoder.resident_bytes();
+    /// decoder.prepare_sampling(); // the sampling weights add to it
+    /// assert!(decoder.resident_bytes() > before);
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn resident_bytes(&self) -> usize {
         let mut n = std::mem::size_of::<Self>() + self.evaluator.heap_bytes();
         if let Some(w) = self.sampling.get() {
@@ -203,6 +224,15 @@ impl Decoder {
     }
 
     /// Convenience form of [`Decoder::eval`] with angles in degrees.
+    ///
+    /// ```
+    /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
+    /// // Light at θ = 30°, φ = 0°; viewer at the mirror direction θ = 30°, φ = 180° (degrees).
+    /// let mut rho = [0.0f64; 2];
+    /// decoder.eval_deg((30.0, 0.0), (30.0, 180.0), &[450.0, 650.0], &mut rho);
+    /// assert!(rho.iter().all(|v| v.is_finite() && *v > 0.0)); // 1/sr
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn eval_deg(
         &self,
         incident: (f64, f64),
@@ -298,6 +328,16 @@ impl Decoder {
     /// Computes the importance-sampling weights now rather than on the first call of
     /// [`Decoder::sample`] or [`Decoder::pdf`] (the only call that allocates): for renderers
     /// that want every later call allocation-free. Thread-safe; later calls do nothing.
+    ///
+    /// ```
+    /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
+    /// decoder.prepare_sampling(); // allocates once, here
+    /// // ... so that sampling in the render loop never allocates:
+    /// let wi = [0.5f32, 0.0, 0.866];
+    /// let s = decoder.sample(wi, [0.25, 0.5]).expect("wi is above the surface");
+    /// assert!(s.pdf > 0.0 && s.wo[2] >= 0.0);
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
     pub fn prepare_sampling(&self) {
         self.sampling_weights();
     }

@@ -279,6 +279,17 @@ fn location(offset: usize, chunk: Option<[u8; 4]>) -> Location {
 
 /// Parses and validates a whole file. Every CRC is checked (except in fuzzing builds, so the
 /// fuzzer can reach the parser behind them).
+///
+/// ```
+/// let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf")).unwrap();
+/// let material = sbrdf::read_material(&bytes, &sbrdf::Limits::default())?;
+/// println!("{} records over {:?} nm", material.records.len(), material.wavelengths);
+/// // One flipped bit anywhere is refused (every chunk carries a CRC-32).
+/// let mut damaged = bytes.clone();
+/// damaged[bytes.len() / 2] ^= 1;
+/// assert!(sbrdf::read_material(&damaged, &sbrdf::Limits::default()).is_err());
+/// # Ok::<(), sbrdf::Error>(())
+/// ```
 pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
     if bytes.len() > limits.max_file_bytes {
         return Err(Error::LimitsExceeded(format!(

@@ -93,6 +93,18 @@ pub fn written_version(m: &Material) -> (u16, bool) {
 }
 
 /// Serialises a material. Fails only if it breaks an invariant of the format.
+///
+/// ```
+/// let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf")).unwrap();
+/// let mut material = sbrdf::read_material(&bytes, &sbrdf::Limits::default())?;
+/// // An archive tool adds provenance and writes the file back.
+/// material.metadata = Some(r#"{"source":"goniometer 3"}"#.to_string());
+/// let written = sbrdf::write_material(&material)?;
+/// let again = sbrdf::read_material(&written, &sbrdf::Limits::default())?;
+/// assert_eq!(again.metadata, material.metadata);
+/// assert_eq!(again.records.len(), material.records.len());
+/// # Ok::<(), sbrdf::Error>(())
+/// ```
 pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     m.validate()
         .map_err(|e| Error::Parameter(format!("cannot write this material: {e}")))?;
