@@ -42,6 +42,26 @@ MATERIALS = ["paper_white", "satin_rosaline", "cc_ibiza_sunset"]
 # (about 25 s for all six on two cores, encoding excluded).
 RES, SPP, ALBEDO_GRID, SWAP_PAIRS = 64, 32, 64, 5000
 MAX_POINT, MAX_ENV, MAX_ALBEDO = 0.02, 0.01, 0.03
+# What these settings give (docs/guide/warped-tables.md, "CI's check"), worst over the two
+# variants: point lights, environment, albedo (relative); each is held at 1.25× (and within the
+# acceptance targets above). The renders trace fixed rays with fixed seeds, so a run repeats them.
+STATED = {
+    "cc_ibiza_sunset": (0.0108, 0.0044, 0.0014),
+    "paper_white": (0.0087, 0.0022, 0.0043),
+    "satin_rosaline": (0.0112, 0.0036, 0.0026),
+    "satin_rosaline_cyan": (0.0109, 0.0033, 0.0028),
+}
+# Cosine sampling's variance over the file's (the guide's figures), held at 1/1.25.
+STATED_VARIANCE_RATIO = {"satin_rosaline": 711.0, "cc_ibiza_sunset": 584.0, "paper_white": 12.2}
+SLACK = 1.25
+
+
+def limits(material):
+    """Point, environment and albedo bounds for a material: its stated figures × SLACK, within
+    the acceptance targets."""
+    point, env, albedo = STATED[material]
+    return (min(MAX_POINT, SLACK * point), min(MAX_ENV, SLACK * env),
+            min(MAX_ALBEDO, SLACK * albedo))
 
 
 def load_tool(name):
@@ -173,14 +193,15 @@ def test_renders_like_mitsuba_measured(material, variant, sbrdf_bin, workdir):
         assert r["measured_mean"] > 0, case
 
     failures = []
+    max_point, max_env, max_albedo = limits(material)
     for case, r in out["render"].items():
-        limit = MAX_ENV if rgl_render.CASES[case] is None else MAX_POINT
+        limit = max_env if rgl_render.CASES[case] is None else max_point
         if not r["rel_l1"] <= limit:
-            failures.append(f"{case}: relative L1 {r['rel_l1']:.4f} > {limit}")
+            failures.append(f"{case}: relative L1 {r['rel_l1']:.4f} > {limit:.4f}")
     bad = [(a["theta_deg"], round(a["rel_diff"], 4)) for a in out["albedo"]["per_theta"]
-           if not a["rel_diff"] <= MAX_ALBEDO]
+           if not a["rel_diff"] <= max_albedo]
     if bad:
-        failures.append(f"directional albedo off by more than {MAX_ALBEDO} at (θ°, rel) {bad}")
+        failures.append(f"directional albedo off by more than {max_albedo:.4f} at (θ°, rel) {bad}")
     sw = out["swap"]
     assert not failures, (
         f"{material}, {variant}:\n  " + "\n  ".join(failures)
@@ -205,10 +226,11 @@ def test_colours_outside_srgb_render_like_mitsuba_measured(sbrdf_bin, workdir):
     record("rgl_render/satin_rosaline_cyan/llvm_ad_rgb", {
         "render": {c: r["rel_l1"] for c, r in out["render"].items()},
         "albedo_worst": out["albedo"]["worst_rel_diff"]})
+    max_point, max_env, max_albedo = limits("satin_rosaline_cyan")
     for case, r in out["render"].items():
-        limit = MAX_ENV if rgl_render.CASES[case] is None else MAX_POINT
-        assert r["rel_l1"] <= limit, f"{case}: relative L1 {r['rel_l1']:.4f} > {limit}"
-    assert out["albedo"]["worst_rel_diff"] <= MAX_ALBEDO, out["albedo"]["worst_rel_diff"]
+        limit = max_env if rgl_render.CASES[case] is None else max_point
+        assert r["rel_l1"] <= limit, f"{case}: relative L1 {r['rel_l1']:.4f} > {limit:.4f}"
+    assert out["albedo"]["worst_rel_diff"] <= max_albedo, out["albedo"]["worst_rel_diff"]
 
 
 @pytest.mark.parametrize("material", MATERIALS)
@@ -240,5 +262,6 @@ def test_importance_sampling_follows_the_tables(material, sbrdf_bin, workdir):
     record(f"rgl_sampling/{material}", {"variance_cosine_over_file": ratio,
                                         "image_mean_rel_diff": bias})
     assert bias <= 0.01, f"{material}: importance-sampled image mean off by {bias:.4f}"
-    target = 5.0 if material == "satin_rosaline" else 1.0
-    assert ratio >= target, f"{material}: variance ratio cosine/file {ratio:.2f} < {target}"
+    target = max(5.0 if material == "satin_rosaline" else 1.0,
+                 STATED_VARIANCE_RATIO[material] / SLACK)
+    assert ratio >= target, f"{material}: variance ratio cosine/file {ratio:.2f} < {target:.1f}"
