@@ -204,7 +204,8 @@ fn the_decoder_follows_the_measurement_between_its_nodes() {
         for t in 0..b.theta_i.len() - 1 {
             let e = error_against_measurement(&dec, &b, t, 3000);
             eprintln!("{name} incidence {t}: {e:.4}");
-            assert!(e < 0.015, "{name} incidence {t}: {e}");
+            // The guide's 0.5–1.0% (warped-tables.md, "Held out"), held at 1.25× (seen 1.03%).
+            assert!(e <= 1.25 * 0.010, "{name} incidence {t}: {e}");
         }
     }
 }
