@@ -18,6 +18,11 @@ pub const fn sh_count(level: usize) -> usize {
     (level + 1) * (level + 1)
 }
 
+/// Length of the normalisation and recurrence tables for level L: one entry per (l, m ≥ 0).
+pub const fn table_len(level: usize) -> usize {
+    (level + 1) * (level + 2) / 2
+}
+
 /// The highest level whose functions fit in `count` values.
 pub const fn level_of(count: usize) -> usize {
     let mut l = 0;
@@ -45,7 +50,7 @@ impl ShBasis {
             level <= MAX_SH_LEVEL,
             "SH level {level} above {MAX_SH_LEVEL}"
         );
-        let mut norm = Vec::with_capacity((level + 1) * (level + 2) / 2);
+        let mut norm = Vec::with_capacity(table_len(level));
         for l in 0..=level {
             for m in 0..=l {
                 // (l−m)!/(l+m)! as a product, which cannot overflow for l ≤ 20.
@@ -130,7 +135,7 @@ impl ShBasis {
     /// [`ShBasis::eval_lanes`] at the level `L` fixed when compiling (≤ the basis's level;
     /// a higher one gives nothing): the same operations, so the same bits, with the loops'
     /// bounds and the tables' indices known, so that the compiler unrolls them. `NT` must be
-    /// (L + 1)(L + 2)/2, the tables' length at level L. The decoder's kernel evaluates its
+    /// [`table_len`]`(L)`. The decoder's kernel evaluates its
     /// groups through this.
     #[inline(always)]
     pub fn eval_lanes_fixed<const N: usize, const L: usize, const NT: usize>(
@@ -138,7 +143,7 @@ impl ShBasis {
         d: [Lanes<N>; 3],
         put: impl FnMut(usize, Lanes<N>),
     ) {
-        debug_assert_eq!(NT, (L + 1) * (L + 2) / 2);
+        debug_assert_eq!(NT, table_len(L));
         let norm: Option<&[f64; NT]> = self.norm.get(..NT).and_then(|t| t.try_into().ok());
         let ratio: Option<&[[f64; 2]; NT]> = self.ratio.get(..NT).and_then(|t| t.try_into().ok());
         if let (Some(norm), Some(ratio)) = (norm, ratio) {

@@ -27,7 +27,7 @@ use super::lattice::Axis;
 use super::resident::Resident;
 use crate::model::lanes::{Lanes, Mask};
 use crate::model::material::{LobeKind, Material};
-use crate::model::sh::{sh_count, ShBasis};
+use crate::model::sh::{sh_count, table_len, ShBasis};
 use formulas::{collapse_amps, collapse_sh, cosine_power, dot, frame, Geometry};
 use lanes_batch::Width;
 
@@ -407,12 +407,12 @@ impl Kernel {
         let count = self.records(g).1;
         match self.groups[g].level {
             0 => sh.map(|a| Lanes::splat(a.first().copied().unwrap_or(0.0) * self.y0)),
-            1 => sh_parts_at::<N, 1, 3, { sh_count(1) }>(wo, sh, count),
-            2 => sh_parts_at::<N, 2, 6, { sh_count(2) }>(wo, sh, count),
-            3 => sh_parts_at::<N, 3, 10, { sh_count(3) }>(wo, sh, count),
-            4 => sh_parts_at::<N, 4, 15, { sh_count(4) }>(wo, sh, count),
-            5 => sh_parts_at::<N, 5, 21, { sh_count(5) }>(wo, sh, count),
-            _ => sh_parts_at::<N, 6, 28, { sh_count(6) }>(wo, sh, count),
+            1 => sh_parts_at::<N, 1, { table_len(1) }, { sh_count(1) }>(wo, sh, count),
+            2 => sh_parts_at::<N, 2, { table_len(2) }, { sh_count(2) }>(wo, sh, count),
+            3 => sh_parts_at::<N, 3, { table_len(3) }, { sh_count(3) }>(wo, sh, count),
+            4 => sh_parts_at::<N, 4, { table_len(4) }, { sh_count(4) }>(wo, sh, count),
+            5 => sh_parts_at::<N, 5, { table_len(5) }, { sh_count(5) }>(wo, sh, count),
+            _ => sh_parts_at::<N, 6, { table_len(6) }, { sh_count(6) }>(wo, sh, count),
         }
     }
 
