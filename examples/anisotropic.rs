@@ -14,33 +14,6 @@ use sbrdf::encode::encoder::{encode, EncodeOptions};
 use sbrdf::io::synth::{paper_grid, sample_material, Ggx};
 use sbrdf::Decoder;
 
-/// The lattice: θi 10°, 30°, 50°, 70° × φi every 45°.
-fn lattice() -> Vec<(f64, f64)> {
-    let mut v = Vec::new();
-    for t in [10.0, 30.0, 50.0, 70.0] {
-        for p in 0..8 {
-            v.push((t, 45.0 * p as f64));
-        }
-    }
-    v
-}
-
-/// Incidences between the lattice nodes (θi half-way, φi half-way, and both), up to 60°.
-fn between() -> Vec<(f64, f64)> {
-    let mut v = Vec::new();
-    for t in [20.0, 40.0, 60.0] {
-        for p in [22.5, 112.5, 202.5, 292.5] {
-            v.push((t, p));
-        }
-        v.push((t, 90.0));
-    }
-    for p in [67.5, 157.5, 247.5, 337.5] {
-        v.push((30.0, p));
-        v.push((50.0, p));
-    }
-    v
-}
-
 fn error_at(dec: &Decoder, ggx: &Ggx, inc: (f64, f64)) -> f64 {
     error_on_paper_grid(dec, inc, |i, o, w| ggx.value(i, o, w))
 }
@@ -62,7 +35,7 @@ fn main() {
         let ggx = Ggx::colorchecker(ax, 1.0, "blue", "yellow", &wl)
             .unwrap()
             .with_anisotropy(ay, axis);
-        let set = sample_material(&wl, &lattice(), &paper_grid(5.0, 5.0), |i, o, w| {
+        let set = sample_material(&wl, &aniso_lattice(), &paper_grid(5.0, 5.0), |i, o, w| {
             ggx.value(i, o, w)
         });
         let t0 = std::time::Instant::now();
@@ -93,7 +66,7 @@ fn main() {
         }
         let dec = Decoder::from_material(enc.material).unwrap();
         if std::env::var_os("SBRDF_DEBUG").is_some() {
-            for i in between() {
+            for i in aniso_between() {
                 eprintln!("between {i:?}: {:.4}", error_at(&dec, &ggx, i));
             }
         }
@@ -103,9 +76,12 @@ fn main() {
             let at = incs[e.iter().position(|&x| x == worst).unwrap()];
             (worst, e.iter().sum::<f64>() / e.len() as f64, at)
         };
-        let stored: Vec<(f64, f64)> = lattice().into_iter().filter(|i| i.0 <= 60.0).collect();
+        let stored: Vec<(f64, f64)> = aniso_lattice()
+            .into_iter()
+            .filter(|i| i.0 <= 60.0)
+            .collect();
         let (sw, sm, sat) = stats(&stored);
-        let (bw, bm, bat) = stats(&between());
+        let (bw, bm, bat) = stats(&aniso_between());
         println!(
             "| {ax} | {ay} | {axis}° | {:.2}% / {:.2}% (worst at {sat:?}) | {:.2}% / {:.2}% (worst at {bat:?}) | {bytes} | {:.0}× | {secs:.1} |",
             100.0 * sw,

@@ -5,7 +5,7 @@
 //! damage to the chunk behind a valid CRC.
 
 mod common;
-use common::{samples_dir, sbrdf, stderr};
+use common::{samples_dir, sbrdf, stderr, SLACK};
 use sbrdf::encode::samples::{ReadOptions, RgbToSpectrum};
 use sbrdf::encode::warped::{encode_warped, WarpedInput, WarpedOptions, DEFAULT_MAX_ERROR};
 use sbrdf::io::rgl::{read_warped, RglBsdf};
@@ -108,7 +108,7 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
         eprintln!("{name}: {} bytes; {e}", bytes.len());
         assert!(bytes.len() <= 6500, "{name}: {} bytes", bytes.len());
         assert!(
-            bytes.len() as f64 <= 1.25 * stated,
+            bytes.len() as f64 <= SLACK * stated,
             "{name}: {} bytes, the guide states {stated}",
             bytes.len()
         );
@@ -205,7 +205,7 @@ fn the_decoder_follows_the_measurement_between_its_nodes() {
             let e = error_against_measurement(&dec, &b, t, 3000);
             eprintln!("{name} incidence {t}: {e:.4}");
             // The guide's 0.5–1.0% (warped-tables.md, "Held out"), held at 1.25× (seen 1.03%).
-            assert!(e <= 1.25 * 0.010, "{name} incidence {t}: {e}");
+            assert!(e <= SLACK * 0.010, "{name} incidence {t}: {e}");
         }
     }
 }

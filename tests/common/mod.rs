@@ -265,3 +265,46 @@ pub fn rgl_spectral(
     }
     write_tensor(&fields)
 }
+
+/// The anisotropic materials' lattice of incidences (`tests/anisotropic.rs`,
+/// `examples/anisotropic.rs`): θi 10°, 30°, 50°, 70° × φi every 45°.
+pub fn aniso_lattice() -> Vec<(f64, f64)> {
+    let mut v = Vec::new();
+    for t in [10.0, 30.0, 50.0, 70.0] {
+        for p in 0..8 {
+            v.push((t, 45.0 * p as f64));
+        }
+    }
+    v
+}
+
+/// Incidences between the nodes of [`aniso_lattice`] (θi half-way, φi half-way, and both), up
+/// to 60°: where the anisotropy table of `docs/guide/anisotropy.md` is measured.
+pub fn aniso_between() -> Vec<(f64, f64)> {
+    let mut v = Vec::new();
+    for t in [20.0, 40.0, 60.0] {
+        for p in [22.5, 112.5, 202.5, 292.5] {
+            v.push((t, p));
+        }
+        v.push((t, 90.0));
+    }
+    for p in [67.5, 157.5, 247.5, 337.5] {
+        v.push((30.0, p));
+        v.push((50.0, p));
+    }
+    v
+}
+
+/// How far a measured figure may move from the value the README or the guide states for it
+/// (other CPUs, compilers and small encoder changes) before a test fails.
+pub const SLACK: f64 = 1.25;
+
+/// A stated figure that may not be exceeded (an error, a size), held at [`SLACK`] times its
+/// value.
+pub fn held(what: &str, got: f64, stated: f64) {
+    eprintln!("{what}: {got} (stated {stated})");
+    assert!(
+        got.is_finite() && got <= SLACK * stated,
+        "{what}: {got}, stated {stated} (bound {SLACK}×)"
+    );
+}
