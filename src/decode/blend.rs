@@ -5,7 +5,8 @@
 
 use super::lattice::Blend;
 use super::resident::Resident;
-use crate::model::angles::{dir_from_deg, dot, mirror_deg, phi_delta};
+use crate::model::angles::{dir_from_deg, mirror_deg, phi_delta};
+use crate::model::lobes::{blend_geometric, blend_linear, blend_peak};
 use crate::model::material::{LobeKind, MAX_LOBES};
 
 /// T*, the highest SH level and the most lobes among the records a query blends, and bit li
@@ -105,22 +106,23 @@ impl Resident {
             if single {
                 return res.params[l0.par as usize + i] as f64;
             }
-            let mut s = 0.0;
-            for (&r, &w) in recs.iter().zip(ws) {
-                s += w * res.ln_params[res.lobe(&res.recs[r], li).par as usize + i];
-            }
-            s.exp()
+            blend_geometric(recs.iter().zip(ws).map(|(&r, &w)| {
+                (
+                    w,
+                    res.ln_params[res.lobe(&res.recs[r], li).par as usize + i],
+                )
+            }))
         };
         let lin = |i: usize| -> f64 {
             if single {
                 return res.params[l0.par as usize + i] as f64;
             }
-            let (mut wa, mut wsum) = (0.0, 0.0);
-            for (&r, &w) in recs.iter().zip(ws) {
-                wa += w * res.params[res.lobe(&res.recs[r], li).par as usize + i] as f64;
-                wsum += w;
-            }
-            wa / wsum
+            blend_linear(recs.iter().zip(ws).map(|(&r, &w)| {
+                (
+                    w,
+                    res.params[res.lobe(&res.recs[r], li).par as usize + i] as f64,
+                )
+            }))
         };
         let r32 = |v: f64| v as f32 as f64;
         match l0.kind {
@@ -179,16 +181,9 @@ impl Resident {
         }
         if res.isotropic {
             // Records 1D in θ, one frame: the normalised weighted mean of their peaks.
-            let mut v = [0.0; 3];
-            for (&r, &w) in recs.iter().zip(ws) {
-                for (vi, pi) in v.iter_mut().zip(res.recs[r].peak) {
-                    *vi += w * pi;
-                }
-            }
-            let n2 = dot(v, v);
-            if n2 > 0.0 && n2.is_finite() {
-                let s = 1.0 / n2.sqrt();
-                return [v[0] * s, v[1] * s, v[2] * s];
+            let (peak, ok) = blend_peak(recs.iter().zip(ws).map(|(&r, &w)| (w, res.recs[r].peak)));
+            if ok {
+                return peak;
             }
         }
         // Records at different azimuths: blend the offsets from each one's mirror direction.

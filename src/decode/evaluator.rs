@@ -14,7 +14,7 @@ use super::lattice::{upper, Blend, Lattice, QueryFrame};
 use super::resident::{Rec, Resident};
 use super::sums::dot_f32;
 use super::warped::WarpedEval;
-use crate::model::angles::{deg_from_dir, dir_from_deg, polar_deg};
+use crate::model::angles::{azimuth_rotation, deg_from_dir, dir_from_deg, polar_deg};
 use crate::model::factor::{FeatureValues, MAX_COMPONENTS, MAX_RANK};
 use crate::model::material::Material;
 use crate::model::sh::sh_count;
@@ -293,19 +293,13 @@ impl Evaluator {
     /// The query's incident direction in the records' frame (`wi` a unit vector with z ≥ 0).
     #[inline(always)]
     pub(crate) fn query_frame(&self, wi: [f64; 3]) -> QueryFrame {
-        let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
+        let (r, c, s) = azimuth_rotation(wi);
         // θ only places the query between stored incidences: an error below what the f32
         // input vector can say about its own angle (≈1e-7 rad) is allowed ("Rounding"), and
         // an inlined polynomial costs a fraction of a library atan2.
         let theta = polar_deg(r, wi[2]);
         if self.res.isotropic {
             // Rotate into the stored frame (φi = 0) with the azimuth's cosine and sine, no trig.
-            let (c, s) = if r > 0.0 {
-                let inv = 1.0 / r;
-                (wi[0] * inv, wi[1] * inv)
-            } else {
-                (1.0, 0.0)
-            };
             QueryFrame {
                 theta,
                 phi: 0.0,
@@ -477,13 +471,19 @@ impl Evaluator {
 #[derive(Debug, Clone)]
 pub(crate) struct WavelengthNodes {
     nodes: Vec<f64>,
+    /// 1/(mean spacing): evenly spaced nodes (the usual case) are located by one
+    /// multiplication, the guess checked; 0 with fewer than two nodes.
+    inv_step: f64,
 }
 
 impl WavelengthNodes {
     fn new(w: &[f32]) -> Self {
-        WavelengthNodes {
-            nodes: w.iter().map(|&v| v as f64).collect(),
-        }
+        let nodes: Vec<f64> = w.iter().map(|&v| v as f64).collect();
+        let inv_step = match nodes.as_slice() {
+            [first, .., last] if last > first => (nodes.len() - 1) as f64 / (last - first),
+            _ => 0.0,
+        };
+        WavelengthNodes { nodes, inv_step }
     }
 
     fn bracket(&self, l: f64) -> (usize, f64) {
@@ -495,7 +495,13 @@ impl WavelengthNodes {
         if l >= n[last] {
             return (last, 0.0);
         }
-        let j = n.partition_point(|&x| x <= l) - 1;
+        // n[0] < l < n[last] here, so the guess is below last.
+        let g = (((l - n[0]) * self.inv_step) as usize).min(last - 1);
+        let j = if n[g] <= l && l < n[g + 1] {
+            g
+        } else {
+            n.partition_point(|&x| x <= l) - 1
+        };
         (j, (l - n[j]) / (n[j + 1] - n[j]))
     }
 }

@@ -3,7 +3,7 @@
 //! records to blend with their weights (`spec/EVALUATION.md`, "Between stored incidences").
 
 use super::resident::Rec;
-use crate::model::angles::{dir_from_deg, dot};
+use crate::model::angles::{dir_from_deg, dot, rotate_about_z, unit_lanes};
 use crate::model::material::Material;
 
 /// A query's incident direction turned into the frame its records are stored in: for isotropic
@@ -25,7 +25,7 @@ impl QueryFrame {
     #[inline(always)]
     pub fn in_frame(self, v: [f64; 3]) -> [f64; 3] {
         match self.rotation {
-            Some((c, s)) => [c * v[0] + s * v[1], -s * v[0] + c * v[1], v[2]],
+            Some(rotation) => rotate_about_z(v, rotation),
             None => v,
         }
     }
@@ -44,12 +44,8 @@ impl QueryFrame {
 /// component costs more); None when it is zero or not finite.
 #[inline(always)]
 pub(crate) fn unit(v: [f32; 3]) -> Option<[f64; 3]> {
-    let v = [v[0] as f64, v[1] as f64, v[2] as f64];
-    let n = dot(v, v).sqrt();
-    (n.is_finite() && n > 0.0).then(|| {
-        let s = 1.0 / n;
-        [v[0] * s, v[1] * s, v[2] * s]
-    })
+    let (u, ok) = unit_lanes([v[0] as f64, v[1] as f64, v[2] as f64]);
+    ok.then_some(u)
 }
 
 /// [`unit`] for a direction that must lie on or above the surface: None also below it (ρ = 0

@@ -23,7 +23,7 @@
 
 use super::evaluator::Evaluator;
 use super::lattice::{unit, upper, QueryFrame};
-use crate::model::angles::{angle_between, dir_from_deg, dot};
+use crate::model::angles::{angle_between, dir_from_deg};
 use crate::model::material::{LobeKind, MAX_LOBES};
 use std::f64::consts::PI;
 
@@ -175,8 +175,7 @@ fn lobe_energy(
                     .sum()
             }
             LobeKind::CosinePower => {
-                let g = dot(wo, rec.peak).clamp(0.0, 1.0);
-                mean_amp(0) * g.powf(params[0] as f64)
+                mean_amp(0) * crate::model::lobes::cosine_power(params[0] as f64, wo, rec.peak)
             }
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 | LobeKind::MicrofacetAniso => {
                 let v = crate::model::lobes::microfacet_kind_variants(lobe.kind, params, wi, wo);
@@ -226,11 +225,12 @@ fn lobe_shape(
         if recs.len() == 1 {
             return res.params[lobe0.par as usize + param] as f64;
         }
-        recs.iter()
-            .zip(ws)
-            .map(|(&r, &w)| w * res.ln_params[res.lobe(&res.recs[r], li).par as usize + param])
-            .sum::<f64>()
-            .exp()
+        crate::model::lobes::blend_geometric(recs.iter().zip(ws).map(|(&r, &w)| {
+            (
+                w,
+                res.ln_params[res.lobe(&res.recs[r], li).par as usize + param],
+            )
+        }))
     };
     match lobe0.kind {
         LobeKind::AngleGaussian => {
@@ -419,6 +419,7 @@ pub(crate) fn pdf(dec: &Evaluator, sw: &SamplingWeights, wi: [f32; 3], wo: [f32;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::angles::dot;
 
     /// Midpoint quadrature of a density over the sphere.
     fn integral(mut f: impl FnMut([f64; 3]) -> f64) -> f64 {

@@ -14,8 +14,10 @@
 use super::evaluator::{Evaluator, SMALL_SH};
 use super::lattice::{Blend, Lattice};
 use super::sums::{dot_f32, dot_terms};
-use crate::model::angles::{dot, polar_deg};
-use crate::model::lobes::{cosine_power, MicrofacetGeometry};
+use crate::model::angles::{azimuth_rotation, polar_deg, rotate_about_z};
+use crate::model::lobes::{
+    blend_geometric, blend_linear, blend_peak, cosine_power, MicrofacetGeometry,
+};
 use crate::model::material::LobeKind;
 use crate::model::sh::{sh_count, ShBasis};
 
@@ -46,15 +48,9 @@ impl Evaluator {
         };
         // The query frame (`Evaluator::query_frame`, isotropic): rotated about z so that its
         // azimuth is 0, by the azimuth's cosine and sine.
-        let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
+        let (r, c, s) = azimuth_rotation(wi);
         let theta = polar_deg(r, wi[2]);
-        let (c, s) = if r > 0.0 {
-            let inv = 1.0 / r;
-            (wi[0] * inv, wi[1] * inv)
-        } else {
-            (1.0, 0.0)
-        };
-        let wo = [c * wo[0] + s * wo[1], -s * wo[0] + c * wo[1], wo[2]];
+        let wo = rotate_about_z(wo, (c, s));
         // The records to blend (`Lattice::blend`, θ line) and the evaluation incidence
         // (`Evaluator::resolve`): θ clamped to the stored range, the incident vector with it.
         let (i, t) = axis.bracket(theta);
@@ -187,11 +183,7 @@ impl Evaluator {
             if n == 1 {
                 return res.params[par(0) + j] as f64;
             }
-            let mut s = 0.0;
-            for i in 0..n {
-                s += blend.w[i] * res.ln_params[par(i) + j];
-            }
-            s.exp()
+            blend_geometric((0..n).map(|i| (blend.w[i], res.ln_params[par(i) + j])))
         };
         let r32 = |v: f64| v as f32 as f64;
         match kind {
@@ -201,17 +193,10 @@ impl Evaluator {
                 let peak = if n == 1 {
                     res.recs[blend.rec[0]].peak
                 } else {
-                    let (p0, p1) = (res.recs[blend.rec[0]].peak, res.recs[blend.rec[1]].peak);
-                    let (w0, w1) = (blend.w[0], blend.w[1]);
-                    let m = [
-                        w0 * p0[0] + w1 * p1[0],
-                        w0 * p0[1] + w1 * p1[1],
-                        w0 * p0[2] + w1 * p1[2],
-                    ];
-                    let n2 = dot(m, m);
-                    if n2 > 0.0 && n2.is_finite() {
-                        let s = 1.0 / n2.sqrt();
-                        [m[0] * s, m[1] * s, m[2] * s]
+                    let peaks = [0, 1].map(|i| (blend.w[i], res.recs[blend.rec[i]].peak));
+                    let (peak, ok) = blend_peak(peaks);
+                    if ok {
+                        peak
                     } else {
                         self.res
                             .blended_peak(&blend.rec[..n], &blend.w[..n], incidence)
@@ -223,12 +208,7 @@ impl Evaluator {
                 let a = if n == 1 {
                     res.params[par(0) + 2] as f64
                 } else {
-                    let (mut wa, mut wsum) = (0.0, 0.0);
-                    for i in 0..n {
-                        wa += blend.w[i] * res.params[par(i) + 2] as f64;
-                        wsum += blend.w[i];
-                    }
-                    wa / wsum
+                    blend_linear((0..n).map(|i| (blend.w[i], res.params[par(i) + 2] as f64)))
                 };
                 let p = [r32(geo(0)), r32(geo(1)), r32(a)];
                 microfacet(geometry, wi, wo, p, kind == LobeKind::MicrofacetSin2)

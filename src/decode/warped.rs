@@ -6,6 +6,7 @@
 use super::draw::{uniforms, Sample, MIN_COSINE_WEIGHT};
 use super::lattice::{upper, QueryFrame};
 use super::warp2d::{bilerp, total, Slices, Warp};
+use crate::model::angles::azimuth_rotation;
 use crate::model::warped::{half_vector, jacobian, lerp_nodes, ndf_at, WarpedModel};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -172,12 +173,7 @@ impl WarpedEval {
     /// pole), and that direction's θ in radians.
     #[inline]
     fn frame(wi: [f64; 3]) -> (QueryFrame, f64) {
-        let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
-        let (c, s) = if r > 0.0 {
-            (wi[0] / r, wi[1] / r)
-        } else {
-            (1.0, 0.0)
-        };
+        let (r, c, s) = azimuth_rotation(wi);
         let theta = r.atan2(wi[2]);
         let q = QueryFrame {
             theta: theta.to_degrees(),

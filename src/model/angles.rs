@@ -5,7 +5,7 @@
 //! from +x about z. The incident direction points from the surface toward the light; the outgoing
 //! direction points toward the viewer. The mirror direction of (θ, φ) is (θ, φ + 180°).
 
-use crate::model::lanes::Lanes;
+use crate::model::lanes::{Lanes, Real};
 
 /// Unit vector of a direction given in degrees.
 pub fn dir_from_deg(theta_deg: f64, phi_deg: f64) -> [f64; 3] {
@@ -89,8 +89,9 @@ pub fn mirror_deg(theta_i: f64, phi_i: f64) -> (f64, f64) {
     (theta_i, wrap_phi(phi_i + 180.0))
 }
 
-/// The dot product of two vectors.
-pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+/// The dot product of two vectors (of numbers or of lanes).
+#[inline(always)]
+pub fn dot<R: Real>(a: [R; 3], b: [R; 3]) -> R {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -104,6 +105,35 @@ pub fn angle_between(a: [f64; 3], b: [f64; 3]) -> f64 {
     ];
     let s = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
     s.atan2(dot(a, b))
+}
+
+/// `v` scaled to unit length with one reciprocal, and where that worked (its length finite
+/// and positive; elsewhere the lanes hold `v` unchanged). The decoder's direction check
+/// (`spec/EVALUATION.md`, "Directions") for one vector or lanes of them.
+#[inline(always)]
+pub fn unit_lanes<R: Real>(v: [R; 3]) -> ([R; 3], R::Mask) {
+    let n = dot(v, v).sqrt();
+    let ok = R::and(n.finite(), n.gt(R::splat(0.0)));
+    let s = R::splat(1.0) / R::select(ok, n, R::splat(1.0));
+    (v.map(|c| c * s), ok)
+}
+
+/// The rotation about z that takes unit `wi` to azimuth 0 (the records' frame of an isotropic
+/// file), without trigonometry: (r, cos φ, sin φ) with r = √(x² + y²); (0, 1, 0) at the pole.
+#[inline(always)]
+pub fn azimuth_rotation<R: Real>(wi: [R; 3]) -> (R, R, R) {
+    let r = (wi[0] * wi[0] + wi[1] * wi[1]).sqrt();
+    let positive = r.gt(R::splat(0.0));
+    let inv = R::splat(1.0) / R::select(positive, r, R::splat(1.0));
+    let c = R::select(positive, wi[0] * inv, R::splat(1.0));
+    let s = R::select(positive, wi[1] * inv, R::splat(0.0));
+    (r, c, s)
+}
+
+/// `v` turned about z by the rotation (cos, sin) [`azimuth_rotation`] gives.
+#[inline(always)]
+pub fn rotate_about_z<R: Real>(v: [R; 3], (c, s): (R, R)) -> [R; 3] {
+    [c * v[0] + s * v[1], -s * v[0] + c * v[1], v[2]]
 }
 
 /// `v` scaled to unit length; None when its length is zero or not finite.

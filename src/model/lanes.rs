@@ -323,6 +323,164 @@ impl<const N: usize> Lanes<N> {
     }
 }
 
+/// What the lobe formulas (`model::lobes`) and the frame step need of a number: written once
+/// over this trait, they are the scalar formulas for `f64` (the C library's `exp` and `ln`, the
+/// standard `min` and `max`) and the batch kernel's for [`Lanes`] (this module's `exp` and `ln`,
+/// x86's `minpd`), so the scalar paths and the kernel share one text of each formula while each
+/// keeps the bits it had.
+pub trait Real:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + Add<f64, Output = Self>
+    + Sub<f64, Output = Self>
+    + Mul<f64, Output = Self>
+    + Div<f64, Output = Self>
+{
+    /// A condition per lane (`bool` for one number).
+    type Mask: Copy;
+    /// `v` in every lane.
+    fn splat(v: f64) -> Self;
+    /// The square root (IEEE, correctly rounded).
+    fn sqrt(self) -> Self;
+    /// The smaller of the two.
+    fn min(self, o: Self) -> Self;
+    /// The larger of the two.
+    fn max(self, o: Self) -> Self;
+    /// eˣ.
+    fn exp(self) -> Self;
+    /// ln x.
+    fn ln(self) -> Self;
+    /// Where `self > o`.
+    fn gt(self, o: Self) -> Self::Mask;
+    /// Where `self >= o`.
+    fn ge(self, o: Self) -> Self::Mask;
+    /// Where finite.
+    fn finite(self) -> Self::Mask;
+    /// Where both hold.
+    fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// `a` where `m` holds, else `b`.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// `a()` where `m` holds, else `b`: one number computes `a()` only where it is needed (a
+    /// scalar `exp` and `ln` are calls worth skipping), lanes compute it for all and select.
+    fn select_with(m: Self::Mask, a: impl FnOnce() -> Self, b: Self) -> Self;
+}
+
+impl Real for f64 {
+    type Mask = bool;
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        f64::min(self, o)
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        f64::max(self, o)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        f64::exp(self)
+    }
+    #[inline(always)]
+    fn ln(self) -> Self {
+        f64::ln(self)
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> bool {
+        self > o
+    }
+    #[inline(always)]
+    fn ge(self, o: Self) -> bool {
+        self >= o
+    }
+    #[inline(always)]
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+    #[inline(always)]
+    fn and(a: bool, b: bool) -> bool {
+        a && b
+    }
+    #[inline(always)]
+    fn select(m: bool, a: Self, b: Self) -> Self {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn select_with(m: bool, a: impl FnOnce() -> Self, b: Self) -> Self {
+        if m {
+            a()
+        } else {
+            b
+        }
+    }
+}
+
+impl<const N: usize> Real for Lanes<N> {
+    type Mask = Mask<N>;
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        Lanes::splat(v)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        Lanes::sqrt(self)
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        Lanes::min(self, o)
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        Lanes::max(self, o)
+    }
+    #[inline(always)]
+    fn exp(self) -> Self {
+        Lanes::exp(self)
+    }
+    #[inline(always)]
+    fn ln(self) -> Self {
+        Lanes::ln(self)
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> Mask<N> {
+        Lanes::gt(self, o)
+    }
+    #[inline(always)]
+    fn ge(self, o: Self) -> Mask<N> {
+        Lanes::ge(self, o)
+    }
+    #[inline(always)]
+    fn finite(self) -> Mask<N> {
+        Lanes::finite(self)
+    }
+    #[inline(always)]
+    fn and(a: Mask<N>, b: Mask<N>) -> Mask<N> {
+        a.and(b)
+    }
+    #[inline(always)]
+    fn select(m: Mask<N>, a: Self, b: Self) -> Self {
+        Lanes::select(m, a, b)
+    }
+    #[inline(always)]
+    fn select_with(m: Mask<N>, a: impl FnOnce() -> Self, b: Self) -> Self {
+        Lanes::select(m, a(), b)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,23 +1,88 @@
-//! Lobe shapes that need more than an angle: evaluated by the decoder and the encoder alike.
-//! Normative text: `spec/EVALUATION.md`, section "Lobes".
+//! Lobe shapes that need more than an angle: evaluated by the decoder (its scalar paths and
+//! its batch kernel), the sampler and the encoder alike. Each formula is written once, over
+//! [`Real`]: one `f64` or [`Lanes`](crate::model::lanes::Lanes) of them. Normative text:
+//! `spec/EVALUATION.md`, section "Lobes".
 
 use crate::model::angles::dot;
+use crate::model::lanes::Real;
 
 /// Cosines are kept at least this large so the grazing factors stay finite on the horizon.
-const MIN_COS: f64 = 1e-6;
+pub const MIN_COS: f64 = 1e-6;
 
 /// A cosine-power lobe's value (kind 4) at unit `wo` for exponent `n` and unit peak direction
 /// `peak`: g^n for g = wo·peak capped at 1 (rounding can exceed it, and a large exponent would
 /// turn 1 + ε into infinity), computed as exp(n·ln g) (powf's value to ~10⁻¹⁵ relative, a
 /// little quicker); 0 where g ≤ 0, without ln 0's division-by-zero trap.
 #[inline(always)]
-pub fn cosine_power(n: f64, wo: [f64; 3], peak: [f64; 3]) -> f64 {
-    let g = dot(wo, peak).min(1.0);
-    if g > 0.0 {
-        (n * g.ln()).exp()
-    } else {
-        0.0
+pub fn cosine_power<R: Real>(n: R, wo: [R; 3], peak: [R; 3]) -> R {
+    cosine_power_of(n, dot(wo, peak))
+}
+
+/// [`cosine_power`] for the cosine `g` of the angle to the peak (callers that hold angles).
+#[inline(always)]
+pub fn cosine_power_of<R: Real>(n: R, g: R) -> R {
+    let one = R::splat(1.0);
+    let g = g.min(one);
+    let positive = g.gt(R::splat(0.0));
+    let g = R::select(positive, g, one);
+    R::select_with(positive, || (n * g.ln()).exp(), R::splat(0.0))
+}
+
+/// A shape parameter of a shared lobe blended geometrically over records (weight w_r, the
+/// parameter's logarithm ln p_r): exp(Σ_r w_r·ln p_r), summed in record order
+/// (`spec/EVALUATION.md`, "Blended coefficients": exponents, microfacet b and c); 1 for no
+/// records.
+#[inline(always)]
+pub fn blend_geometric<R: Real>(parts: impl IntoIterator<Item = (R, f64)>) -> R {
+    let mut parts = parts.into_iter();
+    let Some((w, ln_p)) = parts.next() else {
+        return R::splat(1.0);
+    };
+    let mut s = w * ln_p;
+    for (w, ln_p) in parts {
+        s = s + w * ln_p;
     }
+    s.exp()
+}
+
+/// A shape parameter of a shared lobe blended linearly over records (weight w_r, value p_r):
+/// Σ_r w_r·p_r / Σ_r w_r, each sum in record order (microfacet a); NaN for no records.
+#[inline(always)]
+pub fn blend_linear<R: Real>(parts: impl IntoIterator<Item = (R, f64)>) -> R {
+    let mut parts = parts.into_iter();
+    let Some((w, p)) = parts.next() else {
+        return R::splat(f64::NAN);
+    };
+    let (mut wp, mut ws) = (w * p, w);
+    for (w, p) in parts {
+        wp = wp + w * p;
+        ws = ws + w;
+    }
+    wp / ws
+}
+
+/// The blended peak direction of records in one frame (weight w_r, unit peak p_r): Σ_r w_r·p_r
+/// normalised, and where that sum neither vanishes nor overflows (nowhere for no records) (elsewhere the spec's
+/// azimuth-offset rule applies: `Resident::blended_peak`). "Blended peak direction".
+#[inline(always)]
+pub fn blend_peak<R: Real>(parts: impl IntoIterator<Item = (R, [f64; 3])>) -> ([R; 3], R::Mask) {
+    let mut parts = parts.into_iter();
+    let Some((w, p)) = parts.next() else {
+        return (
+            [R::splat(0.0); 3],
+            R::and(R::splat(0.0).gt(R::splat(0.0)), R::splat(0.0).finite()),
+        );
+    };
+    let mut m = p.map(|p| w * p);
+    for (w, p) in parts {
+        for (m, p) in m.iter_mut().zip(p) {
+            *m = *m + w * p;
+        }
+    }
+    let n2 = dot(m, m);
+    let ok = R::and(n2.gt(R::splat(0.0)), n2.finite());
+    let s = R::splat(1.0) / R::select(ok, n2, R::splat(1.0)).sqrt();
+    (m.map(|c| c * s), ok)
 }
 
 /// The four variants of a microfacet lobe at incident `wi` and outgoing `wo` (unit vectors,
@@ -45,54 +110,115 @@ pub fn microfacet_variants_with(
 
 /// What the microfacet variants share for one pair of directions: everything but the
 /// distribution term, so that neighbouring records with different lobe parameters or kinds
-/// evaluate the geometry once.
+/// evaluate the geometry once. Over one `f64` (the default) or lanes of pairs.
 #[derive(Debug, Clone, Copy)]
-pub struct MicrofacetGeometry {
+pub struct MicrofacetGeometry<R: Real = f64> {
+    /// Where wi + wo does not vanish: elsewhere every variant is 0.
+    ok: R::Mask,
     /// The two arguments of D: 1 − cos θh and sin²θh.
-    one_minus_ch: f64,
-    sin2_h: f64,
+    one_minus_ch: R,
+    sin2_h: R,
     /// The clamped cosines of θi and θo: the Smith term needs a², so it waits for the parameters.
-    ci: f64,
-    co: f64,
+    ci: R,
+    co: R,
     /// V-cavity visibility and the Schlick factor (1 − cd)⁵.
-    vc: f64,
-    f: f64,
+    vc: R,
+    f: R,
     /// The half vector's tangential components, for the anisotropic kind.
-    hx: f64,
-    hy: f64,
+    hx: R,
+    hy: R,
 }
 
-impl MicrofacetGeometry {
-    /// None when wi + wo vanishes (opposite directions): every variant is then 0.
+impl<R: Real> MicrofacetGeometry<R> {
+    /// The geometry of unit `wi`, `wo` (local frame), every lane; where wi + wo vanishes
+    /// (opposite directions) its variants are 0.
     #[inline(always)]
-    pub fn new(wi: [f64; 3], wo: [f64; 3]) -> Option<Self> {
+    pub fn at(wi: [R; 3], wo: [R; 3]) -> Self {
         let sum = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
         let n2 = dot(sum, sum);
-        if !(n2 > 0.0 && n2.is_finite()) {
-            return None;
-        }
+        let (zero, one, min) = (R::splat(0.0), R::splat(1.0), R::splat(MIN_COS));
+        let ok = R::and(n2.gt(zero), n2.finite());
         // Reciprocals where the formulas divide (equal to rounding).
-        let inv = 1.0 / n2.sqrt();
-        let h = [sum[0] * inv, sum[1] * inv, sum[2] * inv];
-        let ch = h[2].clamp(0.0, 1.0);
-        let cd = dot(wi, h).clamp(MIN_COS, 1.0);
-        let ci = wi[2].max(MIN_COS);
-        let co = wo[2].max(MIN_COS);
+        let inv = one / R::select(ok, n2, one).sqrt();
+        let h = sum.map(|c| c * inv);
+        let ch = h[2].max(zero).min(one);
+        let cd = dot(wi, h).max(min).min(one);
+        let ci = wi[2].max(min);
+        let co = wo[2].max(min);
         // min(1/(ci·co), 2ch/(cd·ci), 2ch/(cd·co)) = min(1, 2ch·co/cd, 2ch·ci/cd)/(ci·co).
-        let m = 2.0 * ch / cd;
-        let vc = (m * co).min(m * ci).min(1.0) / (ci * co);
-        let g = 1.0 - cd;
+        let m = R::splat(2.0) * ch / cd;
+        let vc = (m * co).min(m * ci).min(one) / (ci * co);
+        let g = one - cd;
         let g2 = g * g;
-        Some(MicrofacetGeometry {
-            one_minus_ch: 1.0 - ch,
-            sin2_h: 1.0 - ch * ch,
+        MicrofacetGeometry {
+            ok,
+            one_minus_ch: one - ch,
+            sin2_h: one - ch * ch,
             ci,
             co,
             vc,
             f: g2 * g2 * g,
             hx: h[0],
             hy: h[1],
-        })
+        }
+    }
+
+    /// [D·Vs, D·Vs·F, D·Vc, D·Vc·F] for parameters b, c, a, with D's argument sin²θh when
+    /// `sin2`, else 1 − cos θh.
+    #[inline(always)]
+    pub fn variants_of(&self, b: R, c: R, a: R, sin2: bool) -> [R; 4] {
+        let one = R::splat(1.0);
+        let x = if sin2 { self.sin2_h } else { self.one_minus_ch };
+        // exp(−c·ln(1 + b·x)): powf's value to ~1.5e-15 relative, about 10% quicker than glibc pow.
+        let d = (-c * (one + b * x).ln()).exp();
+        let (ci, co) = (self.ci, self.co);
+        let a2 = a * a;
+        let vs = one
+            / (co * (a2 + (one - a2) * ci * ci).sqrt() + ci * (a2 + (one - a2) * co * co).sqrt());
+        self.masked([d * vs, d * vs * self.f, d * self.vc, d * self.vc * self.f])
+    }
+
+    /// The four variants of the anisotropic kind for parameters `[bx, by, c, ax, ay, _]` with
+    /// its axis given as (sin ψ, cos ψ), at the directions `wi`, `wo` this geometry was made
+    /// from: D = (1 + bx·hu² + by·hv²)^(−c) and Vs = 1/(co·√(ci² + ax²·ui² + ay²·vi²) +
+    /// ci·√(co² + ax²·uo² + ay²·vo²)), where xu, xv are the components of x along
+    /// u = (cos ψ, sin ψ, 0) and v = (−sin ψ, cos ψ, 0); Vc and F as for the isotropic kinds.
+    #[inline(always)]
+    pub fn variants_aniso_of(
+        &self,
+        params: [R; 6],
+        (s, k): (R, R),
+        wi: [R; 3],
+        wo: [R; 3],
+    ) -> [R; 4] {
+        let [bx, by, c, ax, ay, _] = params;
+        let one = R::splat(1.0);
+        let along = |x: R, y: R| (x * k + y * s, y * k - x * s);
+        let (hu, hv) = along(self.hx, self.hy);
+        let d = (-c * (one + bx * hu * hu + by * hv * hv).ln()).exp();
+        let (ci, co) = (self.ci, self.co);
+        let (ax2, ay2) = (ax * ax, ay * ay);
+        let (iu, iv) = along(wi[0], wi[1]);
+        let (ou, ov) = along(wo[0], wo[1]);
+        let vs = one
+            / (co * (ci * ci + ax2 * iu * iu + ay2 * iv * iv).sqrt()
+                + ci * (co * co + ax2 * ou * ou + ay2 * ov * ov).sqrt());
+        self.masked([d * vs, d * vs * self.f, d * self.vc, d * self.vc * self.f])
+    }
+
+    /// `v` where the geometry exists, 0 elsewhere.
+    #[inline(always)]
+    fn masked(&self, v: [R; 4]) -> [R; 4] {
+        v.map(|v| R::select(self.ok, v, R::splat(0.0)))
+    }
+}
+
+impl MicrofacetGeometry {
+    /// None when wi + wo vanishes (opposite directions): every variant is then 0.
+    #[inline(always)]
+    pub fn new(wi: [f64; 3], wo: [f64; 3]) -> Option<Self> {
+        let g = Self::at(wi, wo);
+        g.ok.then_some(g)
     }
 
     /// [D·Vs, D·Vs·F, D·Vc, D·Vc·F] for parameters `[b, c, a]`.
@@ -103,27 +229,17 @@ impl MicrofacetGeometry {
     /// [`MicrofacetGeometry::variants`] for parameters `[b, c, a]` already widened (the decoder
     /// holds them so, rounded to f32 as the format stores or blends them).
     #[inline(always)]
-    pub fn variants_f64(&self, params: [f64; 3], sin2: bool) -> [f64; 4] {
-        let [b, c, a] = params;
-        let x = if sin2 { self.sin2_h } else { self.one_minus_ch };
-        // exp(−c·ln(1 + b·x)): powf's value to ~1.5e-15 relative, about 10% quicker than glibc pow.
-        let d = (-c * (1.0 + b * x).ln()).exp();
-        let (ci, co) = (self.ci, self.co);
-        let a2 = a * a;
-        let vs = 1.0
-            / (co * (a2 + (1.0 - a2) * ci * ci).sqrt() + ci * (a2 + (1.0 - a2) * co * co).sqrt());
-        [d * vs, d * vs * self.f, d * self.vc, d * self.vc * self.f]
+    pub fn variants_f64(&self, [b, c, a]: [f64; 3], sin2: bool) -> [f64; 4] {
+        self.variants_of(b, c, a, sin2)
     }
 
     /// The four variants of the anisotropic kind for parameters `[bx, by, c, ax, ay, ψ]` (ψ in
-    /// degrees) at the directions `wi`, `wo` this geometry was made from: D = (1 + bx·hu² +
-    /// by·hv²)^(−c) and Vs = 1/(co·√(ci² + ax²·ui² + ay²·vi²) + ci·√(co² + ax²·uo² + ay²·vo²)),
-    /// where xu, xv are the components of x along u = (cos ψ, sin ψ, 0) and v = (−sin ψ, cos ψ,
-    /// 0); Vc and F as for the isotropic kinds.
+    /// degrees) at the directions `wi`, `wo` this geometry was made from
+    /// ([`MicrofacetGeometry::variants_aniso_of`]).
     #[inline(always)]
     pub fn variants_aniso(&self, params: [f64; 6], wi: [f64; 3], wo: [f64; 3]) -> [f64; 4] {
         let axis = params[5].to_radians().sin_cos();
-        self.variants_aniso_with_axis(params, axis, wi, wo)
+        self.variants_aniso_of(params, axis, wi, wo)
     }
 
     /// [`MicrofacetGeometry::variants_aniso`] with (sin ψ, cos ψ) given, for callers that
@@ -132,22 +248,11 @@ impl MicrofacetGeometry {
     pub fn variants_aniso_with_axis(
         &self,
         params: [f64; 6],
-        (s, k): (f64, f64),
+        axis: (f64, f64),
         wi: [f64; 3],
         wo: [f64; 3],
     ) -> [f64; 4] {
-        let [bx, by, c, ax, ay, _] = params;
-        let along = |x: f64, y: f64| (x * k + y * s, y * k - x * s);
-        let (hu, hv) = along(self.hx, self.hy);
-        let d = (-c * (1.0 + bx * hu * hu + by * hv * hv).ln()).exp();
-        let (ci, co) = (self.ci, self.co);
-        let (ax2, ay2) = (ax * ax, ay * ay);
-        let (iu, iv) = along(wi[0], wi[1]);
-        let (ou, ov) = along(wo[0], wo[1]);
-        let vs = 1.0
-            / (co * (ci * ci + ax2 * iu * iu + ay2 * iv * iv).sqrt()
-                + ci * (co * co + ax2 * ou * ou + ay2 * ov * ov).sqrt());
-        [d * vs, d * vs * self.f, d * self.vc, d * self.vc * self.f]
+        self.variants_aniso_of(params, axis, wi, wo)
     }
 }
 

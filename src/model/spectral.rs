@@ -448,6 +448,24 @@ impl SpectrumEvaluator {
         sums
     }
 
+    /// [`Self::cell`] for unevenly spaced nodes, cells `hint` and `hint + 1` tried before the
+    /// search: the same cell, the same f.
+    #[inline(always)]
+    fn cell_near(nodes: &[f32], hint: usize, lambda: f64) -> Cell {
+        for i in [hint, hint + 1] {
+            if i + 1 < nodes.len() {
+                let (lo, hi) = (nodes[i] as f64, nodes[i + 1] as f64);
+                if lo < lambda && lambda < hi || (lo == lambda && i > 0) {
+                    return Cell {
+                        i,
+                        f: (lambda - lo) / (hi - lo),
+                    };
+                }
+            }
+        }
+        Self::cell(nodes, None, lambda)
+    }
+
     /// Where λ (not NaN) falls among a tabulated basis's nodes (node 0 for an analytic basis).
     #[inline(always)]
     pub fn cell_of(&self, lambda: f64) -> Cell {
@@ -616,6 +634,23 @@ impl SpectrumEvaluator {
                 nodes, inv_step, ..
             } = &self.form
             {
+                // Unevenly spaced nodes would be searched per wavelength; the usual ascending
+                // wavelengths fall in the previous one's cell or the next, checked first (the
+                // same cell, so the same bits).
+                if inv_step.is_none() {
+                    let mut hint = 0;
+                    for (o, &l) in out.iter_mut().zip(wavelengths) {
+                        let l = l as f64;
+                        *o = if l.is_finite() {
+                            let cell = Self::cell_near(nodes, hint, l);
+                            hint = cell.i;
+                            Self::from_node_sums(sums, cell).max(0.0) as f32
+                        } else {
+                            0.0
+                        };
+                    }
+                    return;
+                }
                 for (o, &l) in out.iter_mut().zip(wavelengths) {
                     let l = l as f64;
                     *o = if l.is_finite() {
@@ -677,6 +712,28 @@ fn lerp_rows<const N: usize>(r0: &[f32], r1: &[f32], f: f64, out: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_cell_found_from_a_hint_is_the_searched_cell_bit_for_bit() {
+        // Unevenly spaced nodes, wavelengths at, between and beyond them, every hint.
+        let nodes = [400.0f32, 410.0, 425.0, 450.0, 452.5, 500.0, 610.0, 700.0];
+        let mut lambdas = vec![350.0, 399.9, 700.0, 750.0, f64::MIN_POSITIVE];
+        for w in nodes.windows(2) {
+            let (a, b) = (w[0] as f64, w[1] as f64);
+            lambdas.extend([a, a + 1e-9, (a + b) / 2.0, b - 1e-9]);
+        }
+        for &l in &lambdas {
+            let want = SpectrumEvaluator::cell(&nodes, None, l);
+            for hint in 0..nodes.len() + 2 {
+                let got = SpectrumEvaluator::cell_near(&nodes, hint, l);
+                assert_eq!(
+                    (got.i, got.f.to_bits()),
+                    (want.i, want.f.to_bits()),
+                    "λ {l}, hint {hint}"
+                );
+            }
+        }
+    }
 
     fn space(terms: usize) -> SpectralSpace {
         SpectralSpace::analytic(SpectralBasis::PeriodicFourier, terms, 400.0, 700.0)

@@ -7,7 +7,7 @@ use crate::encode::fit::spectral_projection;
 use crate::encode::samples::{IncidentSamples, SampleSet};
 use crate::error::{Error, Result};
 use crate::model::angles::{angle_between, dir_from_deg, dot, wrap_phi};
-use crate::model::lobes::microfacet_kind_variants;
+use crate::model::lobes::{cosine_power, microfacet_kind_variants};
 use crate::model::material::{IncidentRecord, LobeKind, Material};
 use crate::model::sh::{sh_count, ShBasis};
 use crate::model::spectral::{SpectralBasis, SpectralSpace};
@@ -332,8 +332,7 @@ pub fn lobes_value(rec: &IncidentRecord, k: usize, wi: [f64; 3], wo: [f64; 3]) -
                 l.amplitude[k] as f64 * (-a * a / l.params[k] as f64).exp()
             }
             LobeKind::CosinePower => {
-                let g = dot(wo, peak).clamp(0.0, 1.0);
-                l.amplitude[k] as f64 * g.powf(l.params[0] as f64)
+                l.amplitude[k] as f64 * cosine_power(l.params[0] as f64, wo, peak)
             }
             LobeKind::Microfacet | LobeKind::MicrofacetSin2 | LobeKind::MicrofacetAniso => {
                 let v = microfacet_kind_variants(l.kind, &l.params, wi, wo);

@@ -26,9 +26,12 @@ pub(crate) mod lanes_batch;
 use super::lattice::Axis;
 use super::resident::Resident;
 use crate::model::lanes::{Lanes, Mask};
+use crate::model::lobes::{
+    blend_geometric, blend_linear, blend_peak, cosine_power, MicrofacetGeometry,
+};
 use crate::model::material::{LobeKind, Material};
 use crate::model::sh::{sh_count, table_len, ShBasis};
-use formulas::{collapse_amps, collapse_sh, cosine_power, dot, frame, Geometry};
+use formulas::{collapse_amps, collapse_sh, frame};
 use lanes_batch::Width;
 
 /// The most lobes a record on the kernel's path (and the θ-line path) holds.
@@ -47,9 +50,6 @@ pub(crate) const COLLAPSED_VALUES: usize = 1024;
 pub(super) const AMPS: usize = 4 * LINE_LOBES;
 /// No amplitudes: the second slot of a group of one record.
 const NO_AMPS: [f64; AMPS] = [0.0; AMPS];
-
-/// The microfacet functions' floor on cosines (`MicrofacetGeometry`'s).
-const MIN_COS: f64 = 1e-6;
 
 /// What the kernel knows of a file on a θ line.
 #[derive(Debug, Clone)]
@@ -454,7 +454,7 @@ impl Kernel {
     ) -> Lanes<N> {
         let group = &self.groups[g];
         let (r0, count) = self.records(g);
-        let mut geometry: Option<Geometry<N>> = None;
+        let mut geometry: Option<MicrofacetGeometry<Lanes<N>>> = None;
         for op in group.ops {
             let (first, slots, li, kind) = match op {
                 Op::None => break,
@@ -470,14 +470,16 @@ impl Kernel {
             ];
             let stored = |j: usize| Lanes::splat(res.params[pars[0] + j] as f64);
             let geometric = |j: usize| {
-                (q.w[0] * res.ln_params[pars[0] + j] + q.w[1] * res.ln_params[pars[1] + j]).exp()
+                blend_geometric([
+                    (q.w[0], res.ln_params[pars[0] + j]),
+                    (q.w[1], res.ln_params[pars[1] + j]),
+                ])
             };
             if kind == LobeKind::CosinePower {
                 let (n, peak) = if blended {
-                    let (p0, p1) = (res.recs[r0].peak, res.recs[r0 + 1].peak);
-                    let m: [Lanes<N>; 3] = std::array::from_fn(|c| q.w[0] * p0[c] + q.w[1] * p1[c]);
-                    let inv = 1.0 / dot(m, m).sqrt();
-                    (geometric(0), m.map(|c| c * inv))
+                    let peaks = [res.recs[r0].peak, res.recs[r0 + 1].peak];
+                    let (peak, _) = blend_peak([(q.w[0], peaks[0]), (q.w[1], peaks[1])]);
+                    (geometric(0), peak)
                 } else {
                     (stored(0), res.recs[r0 + first].peak.map(Lanes::splat))
                 };
@@ -488,9 +490,10 @@ impl Kernel {
                 continue;
             }
             let (b, c, a) = if blended {
-                let a0 = res.params[pars[0] + 2] as f64;
-                let a1 = res.params[pars[1] + 2] as f64;
-                let a = (q.w[0] * a0 + q.w[1] * a1) / (q.w[0] + q.w[1]);
+                let a = blend_linear([
+                    (q.w[0], res.params[pars[0] + 2] as f64),
+                    (q.w[1], res.params[pars[1] + 2] as f64),
+                ]);
                 (
                     geometric(0).round_f32(),
                     geometric(1).round_f32(),
@@ -502,12 +505,12 @@ impl Kernel {
             let g = match geometry {
                 Some(g) => g,
                 None => {
-                    let g = Geometry::new(q.wi, q.wo);
+                    let g = MicrofacetGeometry::at(q.wi, q.wo);
                     geometry = Some(g);
                     g
                 }
             };
-            let v = g.variants(b, c, a, kind == LobeKind::MicrofacetSin2);
+            let v = g.variants_of(b, c, a, kind == LobeKind::MicrofacetSin2);
             for slot in first..first + slots {
                 let amp = &amps[slot][4 * li..4 * li + 4];
                 let sum = amp[0] * v[0] + amp[1] * v[1] + amp[2] * v[2] + amp[3] * v[3];

@@ -6,6 +6,7 @@ use super::options::{CriticalAngle, JointOptions, LobeFamily, PeakMode};
 use crate::encode::samples::IncidentSamples;
 use crate::encode::validate::ErrorSums;
 use crate::model::angles::{angle_between, dir_from_deg, wrap_phi};
+use crate::model::lobes::cosine_power_of;
 use crate::model::material::{IncidentRecord, Lobe, LobeKind};
 use crate::model::sh::ShBasis;
 use crate::model::spectral::SpectralSpace;
@@ -192,7 +193,7 @@ impl FitContext {
             match lobe.kind {
                 LobeKind::CosinePower => {
                     for (i, al) in alpha.iter().enumerate() {
-                        let g = al.cos().max(0.0).powf(lobe.params[0] as f64);
+                        let g = cosine_power_of(lobe.params[0] as f64, al.cos());
                         for kk in 0..k {
                             c[(i, kk)] += lobe.amplitude[kk] as f64 * g;
                         }

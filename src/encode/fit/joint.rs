@@ -21,6 +21,7 @@ use crate::encode::samples::IncidentSamples;
 use crate::encode::validate::ErrorSums;
 use crate::format::quantize_record_f16;
 use crate::model::angles::{angle_between, dir_from_deg, mirror_deg, wrap_phi};
+use crate::model::lobes::cosine_power_of;
 use crate::model::material::{IncidentRecord, Lobe, LobeKind};
 use crate::model::sh::sh_count;
 use crate::model::Precision;
@@ -166,7 +167,9 @@ fn lobe_columns(inc: &Incidence, family: LobeFamily, params: &[f64]) -> DMatrix<
             DMatrix::from_iterator(
                 inc.n,
                 1,
-                inc.alpha2.iter().map(|a| a.sqrt().cos().max(0.0).powf(n)),
+                inc.alpha2
+                    .iter()
+                    .map(|a| cosine_power_of(n, a.sqrt().cos())),
             )
         }
         LobeFamily::Microfacet | LobeFamily::MicrofacetSin2 | LobeFamily::MicrofacetAniso => {
