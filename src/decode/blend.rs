@@ -6,8 +6,8 @@
 use super::lattice::Blend;
 use super::resident::Resident;
 use crate::model::angles::{dir_from_deg, mirror_deg, phi_delta};
-use crate::model::lobes::{blend_geometric, blend_linear, blend_peak};
-use crate::model::material::{LobeKind, MAX_LOBES};
+use crate::model::lobes::{blend_geometric, blend_linear, blend_peak, shape_rule, ParamBlend};
+use crate::model::material::MAX_LOBES;
 
 /// T*, the highest SH level and the most lobes among the records a query blends, and bit li
 /// set when lobe position li is shared by all of them.
@@ -124,31 +124,24 @@ impl Resident {
                 )
             }))
         };
-        let r32 = |v: f64| v as f32 as f64;
-        match l0.kind {
-            LobeKind::AngleGaussian => LobeShape {
-                peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
-                p: [0.0; 6],
+        // What blends, and how, is the kind's rule (`model::lobes::shape_rule`).
+        let rule = shape_rule(l0.kind);
+        let mut p = [0.0; 6];
+        for (i, (p, how)) in p.iter_mut().zip(rule.params).enumerate() {
+            let v = match how {
+                ParamBlend::Geometric => geo(i),
+                ParamBlend::Linear => lin(i),
+                ParamBlend::Axis => self.blended_axis(recs, ws, li),
+            };
+            *p = if rule.round_f32 { v as f32 as f64 } else { v };
+        }
+        LobeShape {
+            peak: if rule.peak {
+                self.blended_peak(recs, ws, (inc.theta, inc.phi))
+            } else {
+                [0.0; 3]
             },
-            LobeKind::CosinePower => LobeShape {
-                peak: self.blended_peak(recs, ws, (inc.theta, inc.phi)),
-                p: [geo(0), 0.0, 0.0, 0.0, 0.0, 0.0],
-            },
-            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => LobeShape {
-                peak: [0.0; 3],
-                p: [r32(geo(0)), r32(geo(1)), r32(lin(2)), 0.0, 0.0, 0.0],
-            },
-            LobeKind::MicrofacetAniso => LobeShape {
-                peak: [0.0; 3],
-                p: [
-                    r32(geo(0)),
-                    r32(geo(1)),
-                    r32(geo(2)),
-                    r32(lin(3)),
-                    r32(lin(4)),
-                    r32(self.blended_axis(recs, ws, li)),
-                ],
-            },
+            p,
         }
     }
 

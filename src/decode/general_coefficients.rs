@@ -6,7 +6,7 @@ use super::blend::{Incident, LobeShape, Shapes};
 use super::evaluator::{Evaluator, SMALL_SH, SMALL_TERMS};
 use super::sums::dot_f32;
 use crate::model::angles::angle_between;
-use crate::model::lobes::{cosine_power, MicrofacetGeometry};
+use crate::model::lobes::lobe_values;
 use crate::model::material::{LobeKind, MAX_TERMS};
 use crate::model::sh::{sh_count, ShBasis, MAX_SH_LEVEL};
 
@@ -92,7 +92,8 @@ impl Evaluator {
                 match kind {
                     LobeKind::AngleGaussian => self.add_gaussian(c, recs, ws, li, wo, shape.peak),
                     _ => {
-                        let (v, nv) = self.values(kind, shape, inc.wi, wo, &mut geometry);
+                        let (v, nv) =
+                            lobe_values(kind, &shape.p, shape.peak, inc.wi, wo, &mut geometry);
                         self.add_amplitudes(c, recs, ws, li, &v[..nv]);
                     }
                 }
@@ -115,45 +116,11 @@ impl Evaluator {
                     for (p, &v) in shape.p.iter_mut().zip(stored) {
                         *p = v as f64;
                     }
-                    let (v, nv) = self.values(l.kind, &shape, inc.wi, wo, &mut geometry);
+                    let (v, nv) =
+                        lobe_values(l.kind, &shape.p, shape.peak, inc.wi, wo, &mut geometry);
                     self.add_amplitudes(c, &[r], &[w], li, &v[..nv]);
                 }
             }
-        }
-    }
-
-    /// The values a lobe of kind 2, 3 or 4 multiplies its amplitudes by at `wo`: four variants,
-    /// or the cosine power (one).
-    #[inline(always)]
-    pub(crate) fn values(
-        &self,
-        kind: LobeKind,
-        shape: &LobeShape,
-        wi: [f64; 3],
-        wo: [f64; 3],
-        geometry: &mut Option<Option<MicrofacetGeometry>>,
-    ) -> ([f64; 4], usize) {
-        match kind {
-            LobeKind::CosinePower => ([cosine_power(shape.p[0], wo, shape.peak), 0.0, 0.0, 0.0], 1),
-            LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
-                match *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo)) {
-                    Some(g) => (
-                        g.variants_f64(
-                            [shape.p[0], shape.p[1], shape.p[2]],
-                            kind == LobeKind::MicrofacetSin2,
-                        ),
-                        4,
-                    ),
-                    None => ([0.0; 4], 4), // wi = −wo: every variant is 0
-                }
-            }
-            LobeKind::MicrofacetAniso => {
-                match *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo)) {
-                    Some(g) => (g.variants_aniso(shape.p, wi, wo), 4),
-                    None => ([0.0; 4], 4),
-                }
-            }
-            LobeKind::AngleGaussian => unreachable!("Gaussian lobes have per-term values"),
         }
     }
 

@@ -7,6 +7,7 @@
 use super::blend::{Incident, LobeShape, Shapes};
 use super::evaluator::{Evaluator, SMALL_SH, SMALL_TERMS};
 use super::sums::dot_terms;
+use crate::model::lobes::lobe_values;
 use crate::model::material::LobeKind;
 use crate::model::sh::{sh_count, ShBasis};
 
@@ -80,7 +81,8 @@ impl Evaluator {
                         c.iter().zip(b).map(|(c, b)| c * b).sum::<f64>()
                     }
                     _ => {
-                        let (v, nv) = self.values(kind, shape, inc.wi, wo, &mut geometry);
+                        let (v, nv) =
+                            lobe_values(kind, &shape.p, shape.peak, inc.wi, wo, &mut geometry);
                         self.amplitudes_at(recs, ws, li, &v[..nv], b)
                     }
                 };
@@ -105,7 +107,8 @@ impl Evaluator {
                     for (p, &v) in shape.p.iter_mut().zip(res.params(rec, l)) {
                         *p = v as f64;
                     }
-                    let (v, nv) = self.values(l.kind, &shape, inc.wi, wo, &mut geometry);
+                    let (v, nv) =
+                        lobe_values(l.kind, &shape.p, shape.peak, inc.wi, wo, &mut geometry);
                     acc += self.amplitudes_at(&[r], &[w], li, &v[..nv], b);
                 }
             }

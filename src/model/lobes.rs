@@ -5,6 +5,7 @@
 
 use crate::model::angles::dot;
 use crate::model::lanes::Real;
+use crate::model::material::LobeKind;
 
 /// Cosines are kept at least this large so the grazing factors stay finite on the horizon.
 pub const MIN_COS: f64 = 1e-6;
@@ -256,6 +257,90 @@ impl MicrofacetGeometry {
     }
 }
 
+/// The values a lobe of any kind but the angle Gaussian (whose widths blend per term)
+/// multiplies its amplitudes by at `wo`, and how many there are: the cosine power (one), or a
+/// microfacet kind's four variants. `p` holds the shape as [`shape_rule`] blends it, `peak` the
+/// peak direction (cosine power); the microfacet geometry is computed into `geometry` at most
+/// once per pair of directions, for every lobe that needs it.
+#[inline(always)]
+pub fn lobe_values(
+    kind: LobeKind,
+    p: &[f64; 6],
+    peak: [f64; 3],
+    wi: [f64; 3],
+    wo: [f64; 3],
+    geometry: &mut Option<Option<MicrofacetGeometry>>,
+) -> ([f64; 4], usize) {
+    let mut geometric = || *geometry.get_or_insert_with(|| MicrofacetGeometry::new(wi, wo));
+    match kind {
+        LobeKind::CosinePower => ([cosine_power(p[0], wo, peak), 0.0, 0.0, 0.0], 1),
+        LobeKind::Microfacet | LobeKind::MicrofacetSin2 => match geometric() {
+            Some(g) => (
+                g.variants_f64([p[0], p[1], p[2]], kind == LobeKind::MicrofacetSin2),
+                4,
+            ),
+            None => ([0.0; 4], 4), // wi = −wo: every variant is 0
+        },
+        LobeKind::MicrofacetAniso => match geometric() {
+            Some(g) => (g.variants_aniso(*p, wi, wo), 4),
+            None => ([0.0; 4], 4),
+        },
+        LobeKind::AngleGaussian => ([0.0; 4], 0), // per term: `decode`'s Gaussian sums
+    }
+}
+
+/// How one shape parameter of a lobe shared by blended records combines them
+/// (`spec/EVALUATION.md`, "Blended coefficients").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParamBlend {
+    /// exp(Σ w_r·ln p_r): exponents, microfacet b and c ([`blend_geometric`]).
+    Geometric,
+    /// Σ w_r·p_r / Σ w_r: microfacet a ([`blend_linear`]).
+    Linear,
+    /// The weighted mean of axes ψ (`model::angles::mean_axis_deg`).
+    Axis,
+}
+
+/// How a shared lobe of a kind blends: its peak direction ("Blended peak direction") or not,
+/// its shape parameters in order, and whether the blended parameters are rounded to `f32`
+/// before evaluation. The angle Gaussian blends its widths per term at evaluation instead.
+#[derive(Debug, Clone, Copy)]
+pub struct ShapeRule {
+    /// Whether the kind has a peak direction to blend.
+    pub peak: bool,
+    /// Shape parameter i blends by `params[i]`.
+    pub params: &'static [ParamBlend],
+    /// Whether the blended parameters are rounded to the nearest `f32`.
+    pub round_f32: bool,
+}
+
+/// The blending rule of each lobe kind.
+pub fn shape_rule(kind: LobeKind) -> ShapeRule {
+    use ParamBlend::{Axis, Geometric, Linear};
+    match kind {
+        LobeKind::AngleGaussian => ShapeRule {
+            peak: true,
+            params: &[],
+            round_f32: false,
+        },
+        LobeKind::CosinePower => ShapeRule {
+            peak: true,
+            params: &[Geometric],
+            round_f32: false,
+        },
+        LobeKind::Microfacet | LobeKind::MicrofacetSin2 => ShapeRule {
+            peak: false,
+            params: &[Geometric, Geometric, Linear],
+            round_f32: true,
+        },
+        LobeKind::MicrofacetAniso => ShapeRule {
+            peak: false,
+            params: &[Geometric, Geometric, Geometric, Linear, Linear, Axis],
+            round_f32: true,
+        },
+    }
+}
+
 /// [`MicrofacetGeometry::variants_aniso`] from scratch, for parameters as stored.
 pub fn microfacet_aniso_variants(params: &[f32], wi: [f64; 3], wo: [f64; 3]) -> [f64; 4] {
     match MicrofacetGeometry::new(wi, wo) {
@@ -266,12 +351,11 @@ pub fn microfacet_aniso_variants(params: &[f32], wi: [f64; 3], wo: [f64; 3]) -> 
 
 /// The variants of any microfacet kind (2, 3 or 5) for its parameters as stored.
 pub fn microfacet_kind_variants(
-    kind: crate::model::material::LobeKind,
+    kind: LobeKind,
     params: &[f32],
     wi: [f64; 3],
     wo: [f64; 3],
 ) -> [f64; 4] {
-    use crate::model::material::LobeKind;
     match kind {
         LobeKind::MicrofacetAniso => microfacet_aniso_variants(params, wi, wo),
         LobeKind::MicrofacetSin2 => microfacet_variants_with(params, wi, wo, true),
