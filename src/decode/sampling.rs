@@ -24,6 +24,7 @@
 use super::evaluator::Evaluator;
 use super::lattice::{unit, upper, QueryFrame};
 use crate::model::angles::{angle_between, dir_from_deg};
+use crate::model::lobes::lobe_values;
 use crate::model::material::{LobeKind, MAX_LOBES};
 use std::f64::consts::PI;
 
@@ -174,12 +175,10 @@ fn lobe_energy(
                     .map(|k| amp[k] as f64 * bmean[k] * (-a2 / params[k] as f64).exp())
                     .sum()
             }
-            LobeKind::CosinePower => {
-                mean_amp(0) * crate::model::lobes::cosine_power(params[0] as f64, wo, rec.peak)
-            }
-            LobeKind::Microfacet | LobeKind::MicrofacetSin2 | LobeKind::MicrofacetAniso => {
-                let v = crate::model::lobes::microfacet_kind_variants(lobe.kind, params, wi, wo);
-                (0..4).map(|j| mean_amp(j) * v[j]).sum()
+            kind => {
+                let p = std::array::from_fn(|i| params.get(i).map_or(0.0, |&v| v as f64));
+                let (v, nv) = lobe_values(kind, &p, rec.peak, wi, wo, &mut None);
+                (0..nv).map(|j| mean_amp(j) * v[j]).sum()
             }
         }
     };
