@@ -145,8 +145,13 @@ fn evaluation_at_wavelengths_and_sampling_allocate_nothing() {
 #[test]
 fn an_opened_material_holds_at_most_four_times_its_file() {
     let paths = materials();
-    // The SH constants are shared by every decoder of the process: built before counting.
-    drop(Decoder::from_bytes(&std::fs::read(&paths[0]).unwrap()).unwrap());
+    // The SH constants are shared by every decoder of the process and built on first use,
+    // by whichever thread evaluates first: built here, by one evaluation, before counting
+    // (opening a file alone does not build them, and the test beside this one may not have
+    // evaluated yet).
+    let first = Decoder::from_bytes(&std::fs::read(&paths[0]).unwrap()).unwrap();
+    first.eval([0.0, 0.3, 0.9], [0.2, 0.1, 0.9], &[550.0], &mut [0.0]);
+    drop(first);
     let mut checked = 0;
     for p in &paths {
         let bytes = std::fs::read(p).unwrap();
