@@ -164,32 +164,31 @@ pub(crate) fn total(d: &[f64], n: usize) -> f64 {
         }
     };
     // Four rows at a time, each summed in order from −0.0 as `Iterator::sum` does: the same
-    // roundings as one row after another, but four independent chains instead of one.
-    let mut rows = d.chunks_exact(n).take(n);
+    // roundings as one row after another, but four independent chains instead of one (no
+    // allocation: warped decoders are opened where renderers load scenes).
+    if n == 0 {
+        return -0.0;
+    }
+    let quads = d[..n * n].chunks_exact(4 * n);
+    let rest = quads.remainder();
     let mut sum = -0.0;
-    let mut b = 0;
-    loop {
-        let quad: Vec<&[f64]> = rows.by_ref().take(4).collect();
-        if quad.len() == 4 {
-            let mut acc = [-0.0f64; 4];
-            for a in 0..n {
-                let wa = w(a);
-                for (acc, row) in acc.iter_mut().zip(&quad) {
-                    *acc += wa * row[a];
-                }
+    for (q, quad) in quads.enumerate() {
+        let mut acc = [-0.0f64; 4];
+        for a in 0..n {
+            let wa = w(a);
+            for (r, acc) in acc.iter_mut().enumerate() {
+                *acc += wa * quad[r * n + a];
             }
-            for acc in acc {
-                sum += w(b) * acc;
-                b += 1;
-            }
-        } else {
-            for row in quad {
-                sum += w(b) * (0..n).map(|a| w(a) * row[a]).sum::<f64>();
-                b += 1;
-            }
-            return sum;
+        }
+        for (r, acc) in acc.into_iter().enumerate() {
+            sum += w(4 * q + r) * acc;
         }
     }
+    let first = n - rest.len() / n;
+    for (r, row) in rest.chunks_exact(n).enumerate() {
+        sum += w(first + r) * (0..n).map(|a| w(a) * row[a]).sum::<f64>();
+    }
+    sum
 }
 
 /// Bilinear interpolation of n × n nodes `at(row, column)` (rows along y) at (x, y) ∈ [0, 1]²,
@@ -290,7 +289,8 @@ mod total_tests {
                 .sum()
         };
         let mut x = 0.123_f64;
-        for n in 2..20 {
+        assert_eq!(super::total(&[], 0).to_bits(), (-0.0f64).to_bits());
+        for n in 1..20 {
             let d: Vec<f64> = (0..n * n)
                 .map(|_| {
                     x = (x * 997.0 + 0.31).fract();
