@@ -39,32 +39,36 @@ pub(crate) struct WarpedEval {
 /// The per-node factor D(x_a)·sin θm·π x_a·2π and the half vectors of a G × G grid.
 struct Grid {
     factor: Vec<f64>,
-    m: Vec<[f64; 3]>,
+    /// The half vectors' x and z components (y is not needed), apart so that
+    /// [`Grid::density`] runs in vector lanes.
+    mx: Vec<f64>,
+    mz: Vec<f64>,
     g: usize,
 }
 
 impl Grid {
     fn new(ndf: &[f32], g: usize) -> Self {
         let mut factor = Vec::with_capacity(g * g);
-        let mut m = Vec::with_capacity(g * g);
+        let (mut mx, mut mz) = (Vec::with_capacity(g * g), Vec::with_capacity(g * g));
         let step = 1.0 / (g - 1) as f64;
         for b in 0..g {
             for a in 0..g {
                 let (x, y) = (a as f64 * step, b as f64 * step);
                 let (h, st) = half_vector(x, y);
                 factor.push(ndf_at(ndf, x) * jacobian(x, st));
-                m.push(h);
+                mx.push(h[0]);
+                mz.push(h[2]);
             }
         }
-        Grid { factor, m, g }
+        Grid { factor, mx, mz, g }
     }
 
     /// The unnormalised VNDF density at incidence θ (radians) into `p`; returns its total
     /// (trapezoid rule, rows of a then over b).
     fn density(&self, theta: f64, p: &mut [f64]) -> f64 {
         let (s, c) = theta.sin_cos();
-        for ((v, m), f) in p.iter_mut().zip(&self.m).zip(&self.factor) {
-            *v = f * (s * m[0] + c * m[2]).max(0.0);
+        for (((v, mx), mz), f) in p.iter_mut().zip(&self.mx).zip(&self.mz).zip(&self.factor) {
+            *v = f * (s * mx + c * mz).max(0.0);
         }
         total(p, self.g)
     }
