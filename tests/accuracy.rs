@@ -103,7 +103,11 @@ fn microfacet_materials_up_to_grazing() {
         let w = worst_of(name, &errs, bytes);
         merl = (merl.0.max(w.0), merl.1.max(w.1));
     }
-    held("GGX and MERL fits, bytes per incidence", per_incidence, 400.0);
+    held(
+        "GGX and MERL fits, bytes per incidence",
+        per_incidence,
+        400.0,
+    );
     assert_eq!(ABC_MATERIALS.len(), 10, "the table's row is over 10 fits");
     held("10 MERL ABC fits, 0–60°", merl.0, 0.0050);
     held("10 MERL ABC fits, 75° and 85°", merl.1, 0.0045);

@@ -192,6 +192,9 @@ fn joint_fit_with_the_papers_basis_reaches_its_spectral_floor() {
 /// SLACK: direct SH at level 4, paper mode at level 1 (the automatic critical angle) and the
 /// same in f16, ks/kd = 15. Files without sample positions; the guide's are the command line's,
 /// with its metadata, so the material alone is smaller.
+/// How a mode changes the paper's options.
+type Mode = fn(&mut sbrdf::encode::EncodeOptions);
+
 #[test]
 fn accuracy_and_size_table_of_the_guide() {
     use sbrdf::model::Precision;
@@ -204,24 +207,16 @@ fn accuracy_and_size_table_of_the_guide() {
     ];
     for (n, direct, paper, f16) in stated {
         let set = paper_samples(15.0, n, &INCIDENCE);
-        let modes: [(&str, (f64, f64), Box<dyn Fn(&mut sbrdf::encode::EncodeOptions)>); 3] = [
-            (
-                "direct SH, L = 4",
-                direct,
-                Box::new(|o| {
-                    o.peak = PeakMode::None;
-                    o.sh_level = Some(4);
-                }),
-            ),
-            ("paper mode", paper, Box::new(|o| o.sh_level = Some(1))),
-            (
-                "paper mode, f16",
-                f16,
-                Box::new(|o| {
-                    o.sh_level = Some(1);
-                    o.precision = Precision::F16;
-                }),
-            ),
+        let modes: [(&str, (f64, f64), Mode); 3] = [
+            ("direct SH, L = 4", direct, |o| {
+                o.peak = PeakMode::None;
+                o.sh_level = Some(4);
+            }),
+            ("paper mode", paper, |o| o.sh_level = Some(1)),
+            ("paper mode, f16", f16, |o| {
+                o.sh_level = Some(1);
+                o.precision = Precision::F16;
+            }),
         ];
         for (what, (error, bytes), f) in modes {
             let e = encode_with(&set, |o| {

@@ -343,7 +343,11 @@ fn check(
     }
     if let Some(s) = stated {
         held(&format!("{name}: |∫pdf dω − 1|"), pdf_from_1, s.pdf_from_1);
-        held(&format!("{name}: albedo, sampling vs quadrature"), albedo, s.albedo);
+        held(
+            &format!("{name}: albedo, sampling vs quadrature"),
+            albedo,
+            s.albedo,
+        );
         held(
             &format!("{name}: 1 / variance ratio"),
             1.0 / variance_ratio,
@@ -553,8 +557,20 @@ fn reciprocity_of_reciprocal_inputs() {
     // worst 0.1% of the peak value, held at SLACK; the anisotropic material is not stated.
     for (name, dec, tmin, tmax, stated) in [
         ("Phong n = 200", phong(), 0.0, 80.0, Some((0.0006, 0.001))),
-        ("GGX α = 0.2", ggx_material(), 0.0, 80.0, Some((0.0011, 0.001))),
-        ("anisotropic GGX 0.08/0.35", aniso_material(), 10.0, 70.0, None),
+        (
+            "GGX α = 0.2",
+            ggx_material(),
+            0.0,
+            80.0,
+            Some((0.0011, 0.001)),
+        ),
+        (
+            "anisotropic GGX 0.08/0.35",
+            aniso_material(),
+            10.0,
+            70.0,
+            None,
+        ),
     ] {
         let mut rng = XorShift(0xD1B5_4A32_D192_ED03);
         let (mut d2, mut r2, mut worst, mut peak) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
@@ -594,7 +610,11 @@ fn reciprocity_of_reciprocal_inputs() {
         assert!(rel < 0.01, "{name}: relative L2 {rel}");
         assert!(worst < 0.05 * peak, "{name}: worst {worst} of {peak}");
         if let Some((rel_stated, worst_stated)) = stated {
-            held(&format!("{name}: reciprocity, relative L2"), rel, rel_stated);
+            held(
+                &format!("{name}: reciprocity, relative L2"),
+                rel,
+                rel_stated,
+            );
             held(
                 &format!("{name}: reciprocity, worst / peak"),
                 worst / peak,

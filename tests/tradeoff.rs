@@ -91,7 +91,11 @@ fn tradeoff_rows_reproduce_with_encode() {
     // a row of the report, its bytes and error held at SLACK (its times are a one-off
     // measurement, not a test's business).
     let stated = stated_tradeoff_rows();
-    assert_eq!(stated.len(), rows.len(), "the guide's table has a row per setting");
+    assert_eq!(
+        stated.len(),
+        rows.len(),
+        "the guide's table has a row per setting"
+    );
     for (options, bytes, error) in stated {
         let r = rows
             .iter()

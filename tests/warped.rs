@@ -179,7 +179,11 @@ fn budgets_are_met(name: &str, stated: [f64; 4]) {
         assert!(size < last, "{budget}: {size} bytes, not fewer than {last}");
         last = size;
         if let Some(i) = [0.005, 0.01, 0.02, 0.05].iter().position(|&b| b == budget) {
-            held(&format!("{name} at {budget}, bytes"), size as f64, stated[i]);
+            held(
+                &format!("{name} at {budget}, bytes"),
+                size as f64,
+                stated[i],
+            );
             if budget == 0.005 {
                 assert!(size < 8000, "{name} at 0.5%: {size} bytes");
             }
