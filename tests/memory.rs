@@ -196,3 +196,52 @@ fn an_opened_material_holds_at_most_four_times_its_file() {
     }
     assert!(checked >= 9);
 }
+
+// The decoder's benchmark materials, built as `benches/decode.rs` builds them.
+#[allow(dead_code)]
+#[path = "../benches/common/materials.rs"]
+mod materials;
+
+/// The figures of the guide's memory paragraph (library.md, "Memory"), held at SLACK: the
+/// resident bytes of the smallest golden file and of the compact 1.3 file, the largest ratio to
+/// the file over the golden files that are not warped tables, and the benchmark materials'
+/// files and resident bytes.
+#[test]
+fn the_guides_memory_figures() {
+    use common::held;
+    let golden = common::samples_dir().join("golden");
+    let resident = |name: &str| {
+        let bytes = std::fs::read(golden.join(name)).unwrap();
+        Decoder::from_bytes(&bytes).unwrap().resident_bytes() as f64
+    };
+    held("tiny.sbrdf, resident bytes", resident("tiny.sbrdf"), 1745.0);
+    held(
+        "ggx_3inc_compact_v13.sbrdf, resident bytes",
+        resident("ggx_3inc_compact_v13.sbrdf"),
+        2779.0,
+    );
+    let mut largest = 0.0f64;
+    for f in common::golden_files() {
+        let bytes = std::fs::read(golden.join(&f)).unwrap();
+        let material = sbrdf::read_material(&bytes, &sbrdf::Limits::default()).unwrap();
+        if material.warped.is_none() {
+            let kept = Decoder::from_bytes(&bytes).unwrap().resident_bytes();
+            largest = largest.max(kept as f64 / bytes.len() as f64);
+        }
+    }
+    held("golden files, resident / file", largest, 3.99);
+    // (name, file bytes, resident bytes) as stated: 1 057: 3 773, 1 206: 3 980, 15 860: 35 376.
+    for (name, file, kept) in [
+        ("phong9", 1057.0, 3773.0),
+        ("ggx7", 1206.0, 3980.0),
+        ("ptfe6", 15860.0, 35376.0),
+    ] {
+        let (_, dec, bytes, _, _) = materials::material(name).unwrap();
+        held(&format!("{name}, file bytes"), bytes.len() as f64, file);
+        held(
+            &format!("{name}, resident bytes"),
+            dec.resident_bytes() as f64,
+            kept,
+        );
+    }
+}

@@ -187,3 +187,45 @@ fn joint_fit_with_the_papers_basis_reaches_its_spectral_floor() {
     });
     assert!(e.rel_error < 0.078, "joint on Fourier: {}", e.rel_error);
 }
+
+/// The guide's "Accuracy and size (paper mode)" table (pictures.md), errors and bytes held at
+/// SLACK: direct SH at level 4, paper mode at level 1 (the automatic critical angle) and the
+/// same in f16, ks/kd = 15. Files without sample positions; the guide's are the command line's,
+/// with its metadata, so the material alone is smaller.
+/// How a mode changes the paper's options.
+type Mode = fn(&mut sbrdf::encode::EncodeOptions);
+
+#[test]
+fn accuracy_and_size_table_of_the_guide() {
+    use sbrdf::model::Precision;
+    // (n, direct (error, bytes), paper mode (error, bytes), paper mode f16 (error, bytes))
+    let stated = [
+        (1.0, (0.0767, 1769.0), (0.0782, 786.0), (0.0782, 655.0)),
+        (15.0, (0.1650, 1770.0), (0.0841, 787.0), (0.0840, 657.0)),
+        (50.0, (0.5232, 1769.0), (0.0795, 787.0), (0.0795, 656.0)),
+        (500.0, (0.8842, 1770.0), (0.0735, 788.0), (0.0735, 658.0)),
+    ];
+    for (n, direct, paper, f16) in stated {
+        let set = paper_samples(15.0, n, &INCIDENCE);
+        let modes: [(&str, (f64, f64), Mode); 3] = [
+            ("direct SH, L = 4", direct, |o| {
+                o.peak = PeakMode::None;
+                o.sh_level = Some(4);
+            }),
+            ("paper mode", paper, |o| o.sh_level = Some(1)),
+            ("paper mode, f16", f16, |o| {
+                o.sh_level = Some(1);
+                o.precision = Precision::F16;
+            }),
+        ];
+        for (what, (error, bytes), f) in modes {
+            let e = encode_with(&set, |o| {
+                o.sample_positions = false;
+                f(o)
+            });
+            let size = sbrdf::write_material(&e.material).unwrap().len();
+            held(&format!("n = {n}, {what}: error"), e.rel_error, error);
+            held(&format!("n = {n}, {what}: bytes"), size as f64, bytes);
+        }
+    }
+}

@@ -86,6 +86,45 @@ fn tradeoff_rows_reproduce_with_encode() {
         let bytes = std::fs::metadata(tmp.path().join(&out)).unwrap().len();
         assert_eq!(bytes.to_string(), &r[col("bytes")], "row {i}");
     }
+
+    // The guide's table (docs/guide/tradeoffs.md, this input, `--quick`): every row it states is
+    // a row of the report, its bytes and error held at SLACK (its times are a one-off
+    // measurement, not a test's business).
+    let stated = stated_tradeoff_rows();
+    assert_eq!(
+        stated.len(),
+        rows.len(),
+        "the guide's table has a row per setting"
+    );
+    for (options, bytes, error) in stated {
+        let r = rows
+            .iter()
+            .find(|r| r[col("encode_options")].replace(" --best-effort", "") == options)
+            .unwrap_or_else(|| panic!("the guide's row `{options}` is not in the report"));
+        let got_bytes: f64 = r[col("bytes")].parse().unwrap();
+        let got_error: f64 = r[col("rel_l2_error")].parse().unwrap();
+        common::held(&format!("`{options}` bytes"), got_bytes, bytes);
+        common::held(&format!("`{options}` error"), got_error, error);
+    }
+}
+
+/// The rows of the guide's `sbrdf tradeoff` table: options, bytes, relative error (a fraction).
+fn stated_tradeoff_rows() -> Vec<(String, f64, f64)> {
+    let page = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/guide/tradeoffs.md");
+    std::fs::read_to_string(page)
+        .unwrap()
+        .lines()
+        .filter(|l| l.starts_with("| `--basis"))
+        .map(|l| {
+            let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+            let percent = cells[3].strip_suffix('%').unwrap();
+            (
+                cells[1].trim_matches('`').to_string(),
+                cells[2].parse().unwrap(),
+                percent.parse::<f64>().unwrap() / 100.0,
+            )
+        })
+        .collect()
 }
 
 #[test]

@@ -5,7 +5,7 @@
 //! damage to the chunk behind a valid CRC.
 
 mod common;
-use common::{samples_dir, sbrdf, stderr, SLACK};
+use common::{held, samples_dir, sbrdf, stderr, SLACK};
 use sbrdf::encode::samples::{ReadOptions, RgbToSpectrum};
 use sbrdf::encode::warped::{encode_warped, WarpedInput, WarpedOptions, DEFAULT_MAX_ERROR};
 use sbrdf::io::rgl::{read_warped, RglBsdf};
@@ -130,12 +130,36 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
 
 #[test]
 fn every_budget_is_met_and_bytes_fall_as_it_grows() {
-    for name in MATERIALS {
-        budgets_are_met(name);
+    // The sizes the guide's table states at 0.5%, 1%, 2% and 5% (warped-tables.md; files as the
+    // command line writes them, so with its metadata: the material alone is smaller), each held
+    // at SLACK; and the README's "every material within 0.5% under 8 kB", which takes satin at
+    // 0.45% (5.5 kB).
+    let stated = [
+        [7.5e3, 5.5e3, 3.8e3, 2.2e3],
+        [3.6e3, 2.8e3, 2.2e3, 1.5e3],
+        [5.3e3, 4.0e3, 3.0e3, 2.0e3],
+    ];
+    for (name, stated) in MATERIALS.into_iter().zip(stated) {
+        budgets_are_met(name, stated);
     }
+    let satin = MATERIALS[2];
+    assert!(satin.starts_with("satin"));
+    let enc = encode_warped(
+        &input(satin),
+        &WarpedOptions {
+            max_error: 0.0045,
+            terms: None,
+            transform: None,
+        },
+    )
+    .unwrap();
+    let size = write_material(&enc.material).unwrap().len();
+    assert!(enc.met && size < 8000, "{satin} at 0.45%: {size} bytes");
+    held(&format!("{satin} at 0.45%, bytes"), size as f64, 5.5e3);
 }
 
-fn budgets_are_met(name: &str) {
+/// Each budget met, bytes falling as it grows, and the guide's sizes at 0.5%, 1%, 2% and 5%.
+fn budgets_are_met(name: &str, stated: [f64; 4]) {
     let inp = input(name);
     let mut last = usize::MAX;
     for budget in [0.002, 0.005, 0.01, 0.02, 0.05] {
@@ -154,6 +178,16 @@ fn budgets_are_met(name: &str) {
         assert!(enc.met && worst <= budget, "{budget}: {worst}");
         assert!(size < last, "{budget}: {size} bytes, not fewer than {last}");
         last = size;
+        if let Some(i) = [0.005, 0.01, 0.02, 0.05].iter().position(|&b| b == budget) {
+            held(
+                &format!("{name} at {budget}, bytes"),
+                size as f64,
+                stated[i],
+            );
+            if budget == 0.005 {
+                assert!(size < 8000, "{name} at 0.5%: {size} bytes");
+            }
+        }
     }
 }
 

@@ -49,6 +49,9 @@ def encoded(tmp_path_factory):
         "source": "python/tests/analytic.py: GGX 0.3 over Lambert"})
     record("encoded_analytic", {"bytes": summary["bytes"], "rel_error": summary["rel_error"],
                                 "worst_error": summary["worst_error"]})
+    # The guide's figures for this file (renderers.md): 3 013 bytes, 0.06% error, held at 1.25×.
+    assert summary["bytes"] <= 1.25 * 3013, summary
+    assert summary["rel_error"] <= 1.25 * 0.0006, summary
     return path
 
 
@@ -109,6 +112,15 @@ def pixel_rel_diff(a, b, mask):
     return float(np.mean(np.abs(la[lit] - lb[lit]) / lb[lit]))
 
 
+# Mean relative difference from the reference, as docs/guide/renderers.md's table states it.
+STATED_RENDER_DIFF = {
+    ("scalar_spectral", "point"): 0.0013, ("scalar_spectral", "environment"): 0.00088,
+    ("scalar_rgb", "point"): 0.0012, ("scalar_rgb", "environment"): 0.00080,
+    ("llvm_ad_spectral", "point"): 0.0013, ("llvm_ad_spectral", "environment"): 0.00087,
+    ("llvm_ad_rgb", "point"): 0.0012, ("llvm_ad_rgb", "environment"): 0.00079,
+}
+
+
 @pytest.mark.parametrize("light", ["point", "environment"])
 @pytest.mark.parametrize("variant", SCALAR + LLVM)
 def test_plugin_renders_like_the_reference(variant, light, encoded):
@@ -120,7 +132,10 @@ def test_plugin_renders_like_the_reference(variant, light, encoded):
     d, p = mean_rel_diff(ours, ref, mask), pixel_rel_diff(ours, ref, mask)
     record(f"render/{variant}/{light}", {"mean_rel_diff": d, "mean_pixel_rel_diff": p,
                                          "sphere_pixels": int(mask.sum())})
-    assert d <= 0.01, f"{variant}, {light} light: mean relative difference {d:.4f}"
+    # The acceptance target is 1%; the guide's table, held at 1.25×, is tighter.
+    stated = STATED_RENDER_DIFF[(variant, light)]
+    assert d <= 0.01 and d <= 1.25 * stated, (
+        f"{variant}, {light} light: mean relative difference {d:.5f}, the guide states {stated}")
     if light == "point":
         # Emitter sampling only: the image does not depend on the BSDF's sampling at all.
         ours_is = render({"type": "sbrdf", "filename": str(encoded)}, light)
