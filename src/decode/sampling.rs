@@ -24,7 +24,7 @@
 use super::evaluator::Evaluator;
 use super::lattice::{unit, upper, QueryFrame};
 use crate::model::angles::{angle_between, dir_from_deg};
-use crate::model::lobes::lobe_values;
+use crate::model::lobes::{lobe_values, shape_rule, Proposal};
 use crate::model::material::{LobeKind, MAX_LOBES};
 use std::f64::consts::PI;
 
@@ -86,7 +86,8 @@ impl SamplingWeights {
                     let lobe = res.lobe(rec, li);
                     // The Gaussian's proposal width: the geometric mean of the per-term widths,
                     // weighted by each term's share of the spectrum-averaged amplitude.
-                    let ln_width = if lobe.kind == LobeKind::AngleGaussian {
+                    let ln_width = if shape_rule(lobe.kind).proposal == Proposal::PeakVonMisesFisher
+                    {
                         let ln_b = &res.ln_params[lobe.par as usize..lobe.par as usize + t];
                         let (mut num, mut den) = (0.0, 0.0);
                         let terms = res.amplitudes(rec, lobe, 0).iter().zip(&bmean);
@@ -231,8 +232,8 @@ fn lobe_shape(
             )
         }))
     };
-    match lobe0.kind {
-        LobeKind::AngleGaussian => {
+    match shape_rule(lobe0.kind).proposal {
+        Proposal::PeakVonMisesFisher => {
             let wsum: f64 = ws.iter().sum();
             let ln_b = ws.iter().zip(ln_widths).map(|(w, l)| w * l).sum::<f64>() / wsum;
             let kappa = 2.0 * (-ln_b).exp();
@@ -242,17 +243,17 @@ fn lobe_shape(
                 m: -(-2.0 * kappa).exp_m1(),
             }
         }
-        LobeKind::CosinePower => Shape::CosinePower {
+        Proposal::PeakCosinePower => Shape::CosinePower {
             p: dec.res.blended_peak(recs, ws, incidence),
             n: geo_mean(0),
         },
-        LobeKind::Microfacet | LobeKind::MicrofacetSin2 => {
+        Proposal::VisibleNormals { sin2 } => {
             // Rounded to f32 as the evaluation rounds them.
             let b = geo_mean(0) as f32 as f64;
             let c = geo_mean(1) as f32 as f64;
-            Shape::visible_normals(lobe0.kind == LobeKind::MicrofacetSin2, b, c, wi)
+            Shape::visible_normals(sin2, b, c, wi)
         }
-        LobeKind::MicrofacetAniso => {
+        Proposal::VisibleNormalsAniso => {
             let r32 = |v: f64| v as f32 as f64;
             Shape::visible_normals_aniso(
                 r32(geo_mean(0)),

@@ -312,6 +312,28 @@ pub struct ShapeRule {
     pub params: &'static [ParamBlend],
     /// Whether the blended parameters are rounded to the nearest `f32`.
     pub round_f32: bool,
+    /// How importance sampling proposes directions for the kind.
+    pub proposal: Proposal,
+}
+
+/// The importance-sampling proposal family of a lobe kind (`decode/sampling.rs` draws each
+/// family, from the blended shape parameters): a new kind whose lobe one of them follows needs
+/// no sampling code of its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Proposal {
+    /// A von Mises–Fisher lobe about the peak direction, its concentration from the per-term
+    /// widths (the angle Gaussian's b_k, weighted by each term's share of the amplitude).
+    PeakVonMisesFisher,
+    /// cosⁿ about the peak direction, n = shape parameter 0.
+    PeakCosinePower,
+    /// Visible normals of the isotropic microfacet D with b = parameter 0 and c = parameter 1;
+    /// `sin2` selects D = (1 + b·sin²θh)^(−c) over (1 + b·(1 − cos θh))^(−c).
+    VisibleNormals {
+        /// D in sin²θh.
+        sin2: bool,
+    },
+    /// Visible normals of the anisotropic D with bx, by, c = parameters 0–2 and the axis ψ.
+    VisibleNormalsAniso,
 }
 
 /// The blending rule of each lobe kind.
@@ -322,21 +344,27 @@ pub fn shape_rule(kind: LobeKind) -> ShapeRule {
             peak: true,
             params: &[],
             round_f32: false,
+            proposal: Proposal::PeakVonMisesFisher,
         },
         LobeKind::CosinePower => ShapeRule {
             peak: true,
             params: &[Geometric],
             round_f32: false,
+            proposal: Proposal::PeakCosinePower,
         },
         LobeKind::Microfacet | LobeKind::MicrofacetSin2 => ShapeRule {
             peak: false,
             params: &[Geometric, Geometric, Linear],
             round_f32: true,
+            proposal: Proposal::VisibleNormals {
+                sin2: kind == LobeKind::MicrofacetSin2,
+            },
         },
         LobeKind::MicrofacetAniso => ShapeRule {
             peak: false,
             params: &[Geometric, Geometric, Geometric, Linear, Linear, Axis],
             round_f32: true,
+            proposal: Proposal::VisibleNormalsAniso,
         },
     }
 }
