@@ -97,7 +97,7 @@ impl Evaluator {
                 .map(|_| WavelengthNodes::new(&material.wavelengths)),
         };
         if ev.on_line {
-            ev.kernel = Some(Kernel::new(&ev.res, ev.theta_ends));
+            ev.kernel = Some(Kernel::new(&ev.res));
         }
         ev
     }
@@ -275,6 +275,8 @@ impl Evaluator {
                 Stored {
                     res: &self.res,
                     axis,
+                    ends: &self.theta_ends,
+                    y0: crate::model::sh::ShBasis::shared().constant(),
                 },
             )),
             _ => None,

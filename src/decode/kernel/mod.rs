@@ -58,20 +58,20 @@ pub(crate) struct Kernel {
     recs: Vec<KRec>,
     /// Group r < n: record r alone; group n + r: records r and r + 1.
     groups: Vec<Group>,
-    /// Y_0^0 (a constant).
-    y0: f64,
-    /// The stored θ range's ends with their sine and cosine: a query outside the range is
-    /// evaluated at the nearest end.
-    ends: [(f64, f64, f64); 2],
     /// The batch's widest lanes on this CPU.
     width: Width,
 }
 
-/// What a kernel evaluation reads: the resident arrays and the θ axis of the stored records.
+/// What a kernel evaluation reads: the resident arrays and the θ axis of the stored records,
+/// the stored θ range's ends with their sine and cosine (a query outside the range is evaluated
+/// at the nearest end; the evaluator's, not a copy: renderers open thousands of materials) and
+/// Y_0^0 (a constant).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Stored<'a> {
     pub res: &'a Resident,
     pub axis: &'a Axis,
+    pub ends: &'a [(f64, f64, f64); 2],
+    pub y0: f64,
 }
 
 /// Every record of a file with its spectral terms applied at one wavelength (what
@@ -136,9 +136,8 @@ struct Frame<const N: usize> {
 }
 
 impl Kernel {
-    /// The kernel of a file on the line path ([`takes`]); `ends` the stored θ range's ends
-    /// with their sine and cosine.
-    pub(crate) fn new(res: &Resident, ends: [(f64, f64, f64); 2]) -> Self {
+    /// The kernel of a file on the line path ([`takes`]).
+    pub(crate) fn new(res: &Resident) -> Self {
         let n = res.recs.len();
         let kind = |r: usize, li: usize| {
             let rec = &res.recs[r];
@@ -225,8 +224,6 @@ impl Kernel {
         Kernel {
             recs,
             groups,
-            y0: ShBasis::shared().constant(),
-            ends,
             width: Width::detect(),
         }
     }
@@ -305,8 +302,8 @@ impl Kernel {
         }
         let p = |slot: usize| (self.recs[r0 + slot.min(count - 1)].p as usize).min(NSH);
         let sh = [&sh[0][..p(0)], &sh[1][..if count == 2 { p(1) } else { 0 }]];
-        let q = self.query(g, f, [t]);
-        let s = self.sh_parts(g, q.wo, sh);
+        let q = self.query(st.ends, g, f, [t]);
+        let s = self.sh_parts(g, q.wo, sh, st.y0);
         let v = self.value(st.res, g, s, [&amps[0], &amps[1]], &q);
         v.max(Lanes::splat(0.0)).0[0] as f32
     }
@@ -360,8 +357,8 @@ impl Kernel {
         } else {
             (&NO_AMPS, &[][..])
         };
-        let q = self.query(g, &f, [t]);
-        let s = self.sh_parts(g, q.wo, [s0, s1]);
+        let q = self.query(st.ends, g, &f, [t]);
+        let s = self.sh_parts(g, q.wo, [s0, s1], st.y0);
         let v = self.value(st.res, g, s, [a0, a1], &q);
         Some(v.max(Lanes::splat(0.0)).0[0] as f32)
     }
@@ -403,10 +400,11 @@ impl Kernel {
         g: usize,
         wo: [Lanes<N>; 3],
         sh: [&[f64]; 2],
+        y0: f64,
     ) -> [Lanes<N>; 2] {
         let count = self.records(g).1;
         match self.groups[g].level {
-            0 => sh.map(|a| Lanes::splat(a.first().copied().unwrap_or(0.0) * self.y0)),
+            0 => sh.map(|a| Lanes::splat(a.first().copied().unwrap_or(0.0) * y0)),
             1 => sh_parts_at::<N, 1, { table_len(1) }, { sh_count(1) }>(wo, sh, count),
             2 => sh_parts_at::<N, 2, { table_len(2) }, { sh_count(2) }>(wo, sh, count),
             3 => sh_parts_at::<N, 3, { table_len(3) }, { sh_count(3) }>(wo, sh, count),
@@ -418,11 +416,17 @@ impl Kernel {
 
     /// Group g's query lanes from their frames and second-record weights `t`.
     #[inline(always)]
-    fn query<const N: usize>(&self, g: usize, f: &Frame<N>, t: [f64; N]) -> Query<N> {
+    fn query<const N: usize>(
+        &self,
+        ends: &[(f64, f64, f64); 2],
+        g: usize,
+        f: &Frame<N>,
+        t: [f64; N],
+    ) -> Query<N> {
         let t = Lanes(t);
         // The incidence the records are evaluated at: θ clamped to the stored range, whose
-        // ends' (θ, sin θ, cos θ) the kernel holds.
-        let [(first, s0, c0), (last, s1, c1)] = self.ends;
+        // ends' (θ, sin θ, cos θ) the evaluator holds.
+        let [(first, s0, c0), (last, s1, c1)] = *ends;
         let below = f.theta.lt(Lanes::splat(first));
         let above = f.theta.gt(Lanes::splat(last));
         let pick = |lo: f64, hi: f64, own: Lanes<N>| {
