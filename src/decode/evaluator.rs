@@ -276,7 +276,6 @@ impl Evaluator {
                     res: &self.res,
                     axis,
                     ends: &self.theta_ends,
-                    y0: crate::model::sh::ShBasis::shared().constant(),
                 },
             )),
             _ => None,

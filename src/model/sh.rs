@@ -32,6 +32,10 @@ pub const fn level_of(count: usize) -> usize {
     l
 }
 
+/// Y_0^0 = 1/√(4π), the one level-0 function, bit for bit the value [`ShBasis::constant`]
+/// computes (a unit test checks it): a constant, so that decoders need not hold a copy.
+pub const Y00: f64 = 0.282_094_791_773_878_14;
+
 /// Precomputed normalisation constants for one maximum level.
 #[derive(Debug, Clone)]
 pub struct ShBasis {
@@ -210,6 +214,18 @@ fn recurrence<const N: usize>(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn y00_is_the_computed_constant_bit_for_bit() {
+        assert_eq!(
+            super::Y00.to_bits(),
+            super::ShBasis::shared().constant().to_bits()
+        );
+        assert_eq!(
+            super::Y00.to_bits(),
+            super::ShBasis::new(0).constant().to_bits()
+        );
+    }
+
     use super::*;
 
     /// The recurrence with its indices computed from (l, m) at every step, as first written:

@@ -256,7 +256,7 @@ impl Kernel {
             let lane = |j: usize| chunk[j.min(chunk.len() - 1)] as usize;
             let f = Frame::gather::<W>(std::array::from_fn(|j| &run.frames[lane(j)]));
             let q = self.query(st.ends, run.g, &f, std::array::from_fn(|j| run.ts[lane(j)]));
-            let s = self.sh_parts(run.g, q.wo, sh, st.y0);
+            let s = self.sh_parts(run.g, q.wo, sh);
             let v = self
                 .value(st.res, run.g, s, [&amps[0], &amps[1]], &q)
                 .max(Lanes::splat(0.0));

@@ -30,7 +30,7 @@ use crate::model::lobes::{
     blend_geometric, blend_linear, blend_peak, cosine_power, MicrofacetGeometry,
 };
 use crate::model::material::{LobeKind, Material};
-use crate::model::sh::{sh_count, table_len, ShBasis};
+use crate::model::sh::{sh_count, table_len, ShBasis, Y00};
 use formulas::{collapse_amps, collapse_sh, frame};
 use lanes_batch::Width;
 
@@ -64,14 +64,12 @@ pub(crate) struct Kernel {
 
 /// What a kernel evaluation reads: the resident arrays and the θ axis of the stored records,
 /// the stored θ range's ends with their sine and cosine (a query outside the range is evaluated
-/// at the nearest end; the evaluator's, not a copy: renderers open thousands of materials) and
-/// Y_0^0 (a constant).
+/// at the nearest end; the evaluator's, not a copy: renderers open thousands of materials).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Stored<'a> {
     pub res: &'a Resident,
     pub axis: &'a Axis,
     pub ends: &'a [(f64, f64, f64); 2],
-    pub y0: f64,
 }
 
 /// Every record of a file with its spectral terms applied at one wavelength (what
@@ -303,7 +301,7 @@ impl Kernel {
         let p = |slot: usize| (self.recs[r0 + slot.min(count - 1)].p as usize).min(NSH);
         let sh = [&sh[0][..p(0)], &sh[1][..if count == 2 { p(1) } else { 0 }]];
         let q = self.query(st.ends, g, f, [t]);
-        let s = self.sh_parts(g, q.wo, sh, st.y0);
+        let s = self.sh_parts(g, q.wo, sh);
         let v = self.value(st.res, g, s, [&amps[0], &amps[1]], &q);
         v.max(Lanes::splat(0.0)).0[0] as f32
     }
@@ -358,7 +356,7 @@ impl Kernel {
             (&NO_AMPS, &[][..])
         };
         let q = self.query(st.ends, g, &f, [t]);
-        let s = self.sh_parts(g, q.wo, [s0, s1], st.y0);
+        let s = self.sh_parts(g, q.wo, [s0, s1]);
         let v = self.value(st.res, g, s, [a0, a1], &q);
         Some(v.max(Lanes::splat(0.0)).0[0] as f32)
     }
@@ -400,11 +398,10 @@ impl Kernel {
         g: usize,
         wo: [Lanes<N>; 3],
         sh: [&[f64]; 2],
-        y0: f64,
     ) -> [Lanes<N>; 2] {
         let count = self.records(g).1;
         match self.groups[g].level {
-            0 => sh.map(|a| Lanes::splat(a.first().copied().unwrap_or(0.0) * y0)),
+            0 => sh.map(|a| Lanes::splat(a.first().copied().unwrap_or(0.0) * Y00)),
             1 => sh_parts_at::<N, 1, { table_len(1) }, { sh_count(1) }>(wo, sh, count),
             2 => sh_parts_at::<N, 2, { table_len(2) }, { sh_count(2) }>(wo, sh, count),
             3 => sh_parts_at::<N, 3, { table_len(3) }, { sh_count(3) }>(wo, sh, count),
