@@ -140,3 +140,26 @@ fn damaged_files_do_not_panic() {
         }
     }
 }
+
+/// Incidences that are not a lattice, a cosine basis and f16 records with an odd number of SH
+/// coefficients: the layout's other incidence layout, basis and packing. The golden files have
+/// no scattered or cosine-basis file.
+#[test]
+fn scattered_cosine_f16_material_is_laid_out_within_bounds() {
+    let set = common::paper_samples(15.0, 15.0, &[(20.0, 0.0), (20.0, 45.0), (40.0, 0.0)]);
+    let enc = common::encode_with(&set, |o| {
+        o.basis = sbrdf::model::SpectralBasis::Cosine;
+        o.precision = sbrdf::model::Precision::F16;
+        o.sh_level = Some(2); // 9 coefficients a term: odd, so a half word is left
+    });
+    let bytes = sbrdf::write_material(&enc.material).unwrap();
+    let words = Decoder::from_bytes(&bytes).unwrap().gpu_layout().unwrap();
+    check_bounds(&words, "scattered");
+    assert_eq!(words[3], 2, "incidence layout: scattered");
+    assert_eq!(words[4], 2, "basis: cosine");
+    let first_record = words[17] as usize;
+    assert_eq!(words[first_record + 7], 2, "f16 pairs");
+    let ratio = (4 * words.len()) as f64 / bytes.len() as f64;
+    println!("scattered cosine f16: ratio {ratio:.3}");
+    assert!(ratio <= 1.5);
+}

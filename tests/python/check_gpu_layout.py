@@ -2,9 +2,9 @@
 """Compare the flat device layout (spec/GPU_LAYOUT.md), read by spec/reference_decoder.py's
 `layout_material` from the layout's words alone, with `sbrdf eval` on the file.
 
-Usage: python3 tests/python/check_gpu_layout.py SBRDF_BINARY --manifest MANIFEST
+Usage: python3 tests/python/check_gpu_layout.py SBRDF_BINARY --manifest MANIFEST [FILE...]
 
-For every file the golden MANIFEST lists, `sbrdf layout FILE -o OUT.bin` writes the layout.
+For every file the golden MANIFEST lists, and every FILE, `sbrdf layout FILE -o OUT.bin` writes the layout.
 A file with a factor model (FACT) or warped tables (WARP) must be refused (version 1 does not
 cover them: GPU_LAYOUT.md, "Scope of version 1") and every other file laid out. Each layout is
 evaluated on the stored incidences and pseudo-random (incident, outgoing) pairs at the file's
@@ -56,15 +56,17 @@ def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("binary")
     ap.add_argument("--manifest", required=True)
-    args = ap.parse_args(argv)
+    ap.add_argument("files", nargs="*")
+    args = ap.parse_intermixed_args(argv)
     manifest = Path(args.manifest)
-    names = [line.split(":")[0].strip() for line in manifest.read_text().splitlines()
-             if line.strip() and not line.startswith("#")]
+    paths = [manifest.parent / line.split(":")[0].strip()
+             for line in manifest.read_text().splitlines()
+             if line.strip() and not line.startswith("#")] + [Path(f) for f in args.files]
     failures, covered, buffers = 0, 0, []
     rng = random.Random(25)
     with tempfile.TemporaryDirectory() as tmp:
-        for name in names:
-            path = manifest.parent / name
+        for path in paths:
+            name = path.name
             f = rd.open_file(str(path))
             out = Path(tmp) / (name + ".bin")
             p = subprocess.run([args.binary, "layout", str(path), "-o", str(out)],
