@@ -152,7 +152,8 @@ fn word(v: usize) -> Result<u32> {
     })
 }
 
-/// The stored values of a file are few distinct incidences; sorting them is cheap.
+/// The distinct values, increasing: the stored θi or φi that step 4 of `spec/EVALUATION.md`
+/// brackets the query between (the format forbids −0 angles, so `total_cmp` merges equal ones).
 fn distinct_sorted(values: impl Iterator<Item = f32>) -> Vec<f32> {
     let mut v: Vec<f32> = values.collect();
     v.sort_by(f32::total_cmp);
