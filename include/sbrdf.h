@@ -51,6 +51,12 @@ int  sbrdf_eval_batch(const sbrdf_t *b, size_t n, const float *wi, size_t wi_str
  * right as far as the material is reciprocal. */
 int  sbrdf_sample(const sbrdf_t *b, const float wi[3], float u1, float u2, float wo[3], float *pdf);
 int  sbrdf_pdf(const sbrdf_t *b, const float wi[3], const float wo[3], float *pdf);
+/* The flat device layout of the material (spec/GPU_LAYOUT.md): 32-bit little-endian words for a
+ * GPU kernel. *word_count always receives the words it needs (0 on error); they are written
+ * only when words is not NULL and capacity (in words) holds them. Query with words = NULL first;
+ * a buffer too small is SBRDF_ERR_ARGUMENT, nothing written. Files with a factor model or warped
+ * tables are not covered by layout version 1: SBRDF_ERR_ARGUMENT. */
+int  sbrdf_gpu_layout(const sbrdf_t *b, uint32_t *words, size_t capacity, size_t *word_count);
 void sbrdf_close(sbrdf_t *b);
 const char *sbrdf_error_message(int code);                    /* static string, never NULL */
 

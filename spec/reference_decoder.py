@@ -1386,6 +1386,84 @@ def open_file(path):
     return SbrdfFile(head)
 
 
+# ---------------------------------------------------- the flat device layout (GPU_LAYOUT.md)
+
+GPU_LAYOUT_MAGIC = 0x4C474253  # the bytes "SBGL"
+
+
+def layout_material(data, base=0):
+    """A material read from a flat device layout (spec/GPU_LAYOUT.md, version 1): `data` is the
+    layout buffer's bytes (32-bit little-endian words, several materials possibly concatenated),
+    `base` the word offset where this material's layout starts. Only the layout's words are
+    read; the result evaluates with the same rules as a file (`.eval`). Raises Refused when the
+    words are not a version-1 layout or an offset points outside it."""
+    nwords = len(data) // 4
+
+    def words(off, count, fmt="I"):
+        if off < 0 or count < 0 or base + off + count > nwords:
+            raise malformed("layout: %d words at offset %d run past the buffer" % (count, off))
+        return list(struct.unpack_from("<%d%s" % (count, fmt), data, 4 * (base + off)))
+
+    head = words(0, 20)
+    if head[0] != GPU_LAYOUT_MAGIC:
+        raise malformed("layout: bad magic 0x%08x (GPU_LAYOUT.md, Header)" % head[0])
+    if head[1] != 1:
+        raise unsupported("layout: version %d, this reader knows 1" % head[1])
+    (total, inc_layout, basis, k, level, w, n, t, p) = head[2:11]
+    lmin, lmax = struct.unpack("<2f", struct.pack("<2I", head[11], head[12]))
+    off_waves, off_table, off_thetas, off_phis, off_recs = head[13:18]
+    words(0, total)  # the whole layout lies in the buffer
+    if inc_layout not in (0, 1, 2) or basis not in (1, 2, 3):
+        raise malformed("layout: incidence layout %d or basis %d unknown" % (inc_layout, basis))
+    m = SbrdfFile.__new__(SbrdfFile)
+    m.head = True
+    m.isotropic = inc_layout == 0
+    m.layout = ("isotropic", "lattice", "scattered")[inc_layout]
+    m.basis, m.k, m.sh_level, m.n = basis, k, level, n
+    m.lambda_min, m.lambda_max = lmin, lmax
+    m.wavelengths = words(off_waves, w, "f")
+    m.basis_values = None
+    if basis == 3:
+        table = words(off_table, k * w, "f")
+        m.basis_values = [table[i * w:(i + 1) * w] for i in range(k)]
+    m.thetas = words(off_thetas, t, "f")
+    m.phis = words(off_phis, p, "f")
+    m.fact = m.warp = m.xval = None
+    m.records = []
+
+    def values(off, count, encoding, scale):
+        """Encoding 1: f32 words; 2: f16 pairs, low half first, times the scale (rounded to f32)."""
+        if encoding == 1:
+            return words(off, count, "f")
+        raw = struct.pack("<%dI" % ((count + 1) // 2), *words(off, (count + 1) // 2))
+        return [to_f32(h * scale) for h in struct.unpack_from("<%de" % count, raw)]
+
+    for i in range(n):
+        e = words(off_recs + 12 * i, 12)
+        r = Record()
+        r.theta_i, r.phi_i, r.theta_p, r.phi_p = struct.unpack("<4f", struct.pack("<4I", *e[:4]))
+        r.level, r.terms, lobe_count, encoding = e[4:8]
+        (scale,) = struct.unpack("<f", struct.pack("<I", e[8]))
+        if encoding not in (1, 2):
+            raise malformed("layout: record %d: encoding %d unknown" % (i, encoding))
+        p_r = (r.level + 1) ** 2
+        sh = values(e[9], r.terms * p_r, encoding, scale)
+        r.sh = [sh[j * p_r:(j + 1) * p_r] for j in range(r.terms)]
+        r.lobes = []
+        for li in range(lobe_count):
+            kind, off_amp, off_par = words(e[10] + 3 * li, 3)
+            if kind not in (1, 2, 3, 4, 5):
+                raise malformed("layout: record %d lobe %d: kind %d" % (i, li, kind))
+            variants = 1 if kind in (1, 4) else 4
+            n_par = {1: r.terms, 2: 3, 3: 3, 4: 1, 5: 6}[kind]
+            amps = values(off_amp, variants * r.terms, encoding, scale)
+            rows = [amps[j * r.terms:(j + 1) * r.terms] for j in range(variants)]
+            r.lobes.append((kind, rows, words(off_par, n_par, "f")))
+        m.records.append(r)
+    m.incidences = [(r.theta_i, r.phi_i) for r in m.records]
+    return m
+
+
 def fmt(x):
     """A float as Rust's `{}` prints an f64: shortest round-trip digits, no exponent."""
     if math.isnan(x):

@@ -5,7 +5,7 @@
 mod cli;
 
 use clap::{Parser, Subcommand};
-use cli::{decode, encode, figures, inspect, subset, synth, tradeoff, validate};
+use cli::{decode, encode, figures, inspect, layout, subset, synth, tradeoff, validate};
 use sbrdf::Result;
 use std::process::ExitCode;
 
@@ -72,6 +72,13 @@ rotated to φi = 0 first); outside the stored θi range, the nearest stored θi 
 Example:\n  sbrdf eval m.sbrdf --incident 15,0 --outgoing 15,180 --wavelengths 450,550"
     )]
     Eval(inspect::EvalArgs),
+    /// Write a file's flat device layout (spec/GPU_LAYOUT.md): 32-bit little-endian words for
+    /// a GPU kernel to evaluate.
+    #[command(
+        after_help = "Files with a factor model (FACT) or warped tables (WARP) are not covered by layout \
+version 1 and are refused.\n\nExample:\n  sbrdf layout m.sbrdf -o m.layout.bin"
+    )]
+    Layout(layout::LayoutArgs),
     /// Describe a file: its settings, records and metadata.
     #[command(after_help = "Examples:\n  sbrdf info m.sbrdf\n  sbrdf info m.sbrdf --json")]
     Info(inspect::InfoArgs),
@@ -160,6 +167,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Encode(a) => encode::cmd_encode(a),
         Command::Decode(a) => decode::cmd_decode(a),
         Command::Eval(a) => inspect::cmd_eval(a),
+        Command::Layout(a) => layout::cmd_layout(a),
         Command::Info(a) => inspect::cmd_info(a),
         Command::Verify(a) => inspect::cmd_verify(a),
         Command::Synth(c) => synth::run(c),

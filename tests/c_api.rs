@@ -24,6 +24,7 @@ fn header_declares_exactly_the_exported_api() {
         "int sbrdf_sample(const sbrdf_t *b, const float wi[3], float u1, float u2, float wo[3], float *pdf);",
         "int sbrdf_pdf(const sbrdf_t *b, const float wi[3], const float wo[3], float *pdf);",
         "int sbrdf_eval_batch(const sbrdf_t *b, size_t n, const float *wi, size_t wi_stride, const float *wo, size_t wo_stride, const float *wavelengths_nm, size_t count, float *out);",
+        "int sbrdf_gpu_layout(const sbrdf_t *b, uint32_t *words, size_t capacity, size_t *word_count);",
         "void sbrdf_close(sbrdf_t *b);",
         "const char *sbrdf_error_message(int code);",
     ] {
@@ -55,6 +56,7 @@ fn header_declares_exactly_the_exported_api() {
         "sbrdf_sample",
         "sbrdf_pdf",
         "sbrdf_eval_batch",
+        "sbrdf_gpu_layout",
         "sbrdf_close",
         "sbrdf_error_message",
     ] {
@@ -371,4 +373,59 @@ fn a_batch_through_the_c_abi_is_eval_pair_by_pair() {
         SBRDF_ERR_NULL
     );
     unsafe { sbrdf_close(h) };
+}
+
+#[test]
+fn c_gpu_layout_is_the_decoders_and_checks_its_buffer() {
+    unsafe {
+        let open = |name: &str| {
+            let path = CString::new(golden(name).to_str().unwrap()).unwrap();
+            let mut b = std::ptr::null_mut();
+            assert_eq!(sbrdf_open_file(path.as_ptr(), &mut b), SBRDF_OK);
+            b
+        };
+        let b = open("ggx_3inc_default.sbrdf");
+        let want = sbrdf::Decoder::open(golden("ggx_3inc_default.sbrdf"))
+            .unwrap()
+            .gpu_layout()
+            .unwrap();
+        // The size query, then a buffer one word short (nothing written), then one that fits.
+        let mut count = 0usize;
+        assert_eq!(
+            sbrdf_gpu_layout(b, std::ptr::null_mut(), 0, &mut count),
+            SBRDF_OK
+        );
+        assert_eq!(count, want.len());
+        let mut words = vec![0xdead_beefu32; count];
+        let mut again = 0usize;
+        assert_eq!(
+            sbrdf_gpu_layout(b, words.as_mut_ptr(), count - 1, &mut again),
+            SBRDF_ERR_ARGUMENT
+        );
+        assert_eq!(again, count);
+        assert!(words.iter().all(|&w| w == 0xdead_beef));
+        assert_eq!(
+            sbrdf_gpu_layout(b, words.as_mut_ptr(), count, &mut again),
+            SBRDF_OK
+        );
+        assert_eq!(words, want);
+        assert_eq!(
+            sbrdf_gpu_layout(std::ptr::null(), words.as_mut_ptr(), count, &mut again),
+            SBRDF_ERR_NULL
+        );
+        assert_eq!(
+            sbrdf_gpu_layout(b, words.as_mut_ptr(), count, std::ptr::null_mut()),
+            SBRDF_ERR_NULL
+        );
+        sbrdf_close(b);
+        // A file layout version 1 does not cover: refused, no size.
+        let warp = open("rgl_paper_warp_v14.sbrdf");
+        let mut count = 7usize;
+        assert_eq!(
+            sbrdf_gpu_layout(warp, std::ptr::null_mut(), 0, &mut count),
+            SBRDF_ERR_ARGUMENT
+        );
+        assert_eq!(count, 0);
+        sbrdf_close(warp);
+    }
 }

@@ -6,6 +6,7 @@ pub mod encode;
 pub mod encode_warped;
 pub mod figures;
 pub mod inspect;
+pub mod layout;
 pub mod parse;
 pub mod subset;
 pub mod synth;

@@ -240,6 +240,40 @@ pub unsafe extern "C" fn sbrdf_close(b: *mut sbrdf_t) {
     }
 }
 
+/// The flat device layout (`spec/GPU_LAYOUT.md`, [`crate::Decoder::gpu_layout`]) into a
+/// caller's buffer. `*word_count` always receives the number of 32-bit words the layout needs
+/// (0 on error); the words are written only when `words` is not NULL and `capacity` (in words)
+/// holds them all. Ask the size first with `words` = NULL; a non-NULL buffer that is too small
+/// is `SBRDF_ERR_ARGUMENT` with nothing written. A file not covered by layout version 1 (factor
+/// model, warped tables) is `SBRDF_ERR_ARGUMENT`. Builds the layout on every call.
+#[no_mangle]
+pub unsafe extern "C" fn sbrdf_gpu_layout(
+    b: *const sbrdf_t,
+    words: *mut u32,
+    capacity: usize,
+    word_count: *mut usize,
+) -> c_int {
+    guarded(|| {
+        if b.is_null() || word_count.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        *word_count = 0;
+        let layout = match (*b).0.gpu_layout() {
+            Ok(l) => l,
+            Err(e) => return code_of(&e),
+        };
+        *word_count = layout.len();
+        if words.is_null() {
+            return SBRDF_OK;
+        }
+        if capacity < layout.len() {
+            return SBRDF_ERR_ARGUMENT;
+        }
+        std::slice::from_raw_parts_mut(words, layout.len()).copy_from_slice(&layout);
+        SBRDF_OK
+    })
+}
+
 /// A static, never-NULL description of an error code.
 #[no_mangle]
 pub extern "C" fn sbrdf_error_message(code: c_int) -> *const c_char {

@@ -158,6 +158,22 @@ impl Decoder {
             .unwrap_or_else(|| self.evaluator.res.material())
     }
 
+    /// The flat device layout of this material (`spec/GPU_LAYOUT.md`): 32-bit little-endian
+    /// words (f32 and u32) with a header of word offsets, for a shader to evaluate. Files with a
+    /// factor model (`FACT`) or warped tables (`WARP`) are not covered by layout version 1 and
+    /// give [`Error::Parameter`].
+    ///
+    /// ```
+    /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
+    /// let words = decoder.gpu_layout()?;
+    /// assert_eq!(words[0], u32::from_le_bytes(*b"SBGL"));
+    /// assert_eq!(words[2] as usize, words.len()); // total words
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
+    pub fn gpu_layout(&self) -> Result<Vec<u32>> {
+        super::gpu_layout::gpu_layout(&self.evaluator.res)
+    }
+
     /// Bytes this decoder holds in memory: the struct and everything it owns on the heap
     /// (capacities as requested from the allocator, whose own overhead, typically 8–16 bytes
     /// per allocation over about a dozen allocations, is not counted). An opened file starts

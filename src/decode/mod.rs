@@ -13,6 +13,7 @@ mod draw;
 mod evaluator;
 mod general_coefficients;
 mod general_one_wavelength;
+pub mod gpu_layout;
 mod kernel;
 mod lattice;
 mod proposal;

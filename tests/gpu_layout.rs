@@ -1,0 +1,165 @@
+//! The flat device layout (`spec/GPU_LAYOUT.md`): its size against the file's for every golden
+//! file it covers (the bound is 1.5×), that it is deterministic, that every offset in it
+//! points inside it, that files it does not cover are refused rather than laid out, and that
+//! damaged files neither panic nor lay out. Agreement of its values with `sbrdf eval` is checked
+//! by `tests/python/check_gpu_layout.py` (through the reference decoder).
+
+mod common;
+use sbrdf::Decoder;
+
+const MAGIC: u32 = u32::from_le_bytes(*b"SBGL");
+
+fn golden(name: &str) -> Vec<u8> {
+    std::fs::read(common::samples_dir().join("golden").join(name)).unwrap()
+}
+
+/// Every offset and count in a layout stays inside it: what a kernel reading it relies on.
+fn check_bounds(w: &[u32], name: &str) {
+    let total = w.len();
+    assert_eq!(w[0], MAGIC, "{name}");
+    assert_eq!(w[1], 1, "{name}");
+    assert_eq!(w[2] as usize, total, "{name}: total words");
+    let (k, wl, n, t, p) = (
+        w[5] as usize,
+        w[7] as usize,
+        w[8] as usize,
+        w[9] as usize,
+        w[10] as usize,
+    );
+    let within = |off: u32, len: usize, what: &str| {
+        assert!(
+            off as usize + len <= total,
+            "{name}: {what} at {off} + {len} past {total}"
+        );
+    };
+    within(w[13], wl, "wavelengths");
+    if w[4] == 3 {
+        within(w[14], k * wl, "basis table");
+    } else {
+        assert_eq!(
+            w[14], 0,
+            "{name}: a basis table offset for an analytic basis"
+        );
+    }
+    within(w[15], t, "θi");
+    within(w[16], p, "φi");
+    within(w[17], 12 * n, "record table");
+    for r in 0..n {
+        let e = &w[w[17] as usize + 12 * r..][..12];
+        let (level, terms, m, enc) = (e[4] as usize, e[5] as usize, e[6] as usize, e[7]);
+        assert!(enc == 1 || enc == 2, "{name}: record {r} encoding {enc}");
+        let words = |count: usize| if enc == 1 { count } else { count.div_ceil(2) };
+        within(e[9], words(terms * (level + 1) * (level + 1)), "SH values");
+        within(e[10], 3 * m, "lobe table");
+        for li in 0..m {
+            let l = &w[e[10] as usize + 3 * li..][..3];
+            let (amps, params) = match l[0] {
+                1 => (terms, terms),
+                2 | 3 => (4 * terms, 3),
+                4 => (terms, 1),
+                5 => (4 * terms, 6),
+                other => panic!("{name}: lobe kind {other}"),
+            };
+            within(l[1], words(amps), "amplitudes");
+            within(l[2], params, "parameters");
+        }
+    }
+}
+
+#[test]
+fn covered_golden_files_fit_in_one_and_a_half_times_their_size() {
+    let mut covered = 0;
+    for name in common::golden_files() {
+        let bytes = golden(&name);
+        let dec = Decoder::from_bytes(&bytes).unwrap();
+        let m = dec.material();
+        let expect_covered = m.factor.is_none() && m.warped.is_none();
+        match dec.gpu_layout() {
+            Ok(words) => {
+                assert!(expect_covered, "{name}: laid out although not covered");
+                let ratio = (4 * words.len()) as f64 / bytes.len() as f64;
+                println!(
+                    "{name}: file {} B, layout {} B, ratio {ratio:.3}",
+                    bytes.len(),
+                    4 * words.len()
+                );
+                assert!(ratio <= 1.5, "{name}: layout {ratio:.3}× the file");
+                check_bounds(&words, &name);
+                assert_eq!(
+                    words,
+                    Decoder::from_bytes(&bytes).unwrap().gpu_layout().unwrap(),
+                    "{name}: not deterministic"
+                );
+                covered += 1;
+            }
+            Err(e) => {
+                assert!(!expect_covered, "{name}: covered file refused: {e}");
+                let msg = e.to_string();
+                assert!(
+                    msg.contains("FACT") || msg.contains("WARP"),
+                    "{name}: {msg}"
+                );
+                println!("{name}: not covered: {msg}");
+            }
+        }
+    }
+    assert!(covered >= 10, "only {covered} golden files covered");
+}
+
+#[test]
+fn f16_records_are_packed_two_values_a_word() {
+    let words = Decoder::from_bytes(&golden("phong_3inc_direct_f16.sbrdf"))
+        .unwrap()
+        .gpu_layout()
+        .unwrap();
+    let first_record = words[17] as usize;
+    assert_eq!(words[first_record + 7], 2, "encoding of the first record");
+}
+
+#[test]
+fn damaged_files_do_not_panic() {
+    for name in common::golden_files() {
+        let bytes = golden(&name);
+        // Cut short and one byte flipped at several places: refused at open (CRCs), or laid out
+        // within bounds; never a panic.
+        for cut in [0, 1, 12, bytes.len() / 3, bytes.len() / 2, bytes.len() - 1] {
+            if let Ok(dec) = Decoder::from_bytes(&bytes[..cut]) {
+                if let Ok(w) = dec.gpu_layout() {
+                    check_bounds(&w, &name);
+                }
+            }
+        }
+        for at in (0..bytes.len()).step_by((bytes.len() / 17).max(1)) {
+            let mut b = bytes.clone();
+            b[at] ^= 0x5a;
+            if let Ok(dec) = Decoder::from_bytes(&b) {
+                if let Ok(w) = dec.gpu_layout() {
+                    check_bounds(&w, &name);
+                }
+            }
+        }
+    }
+}
+
+/// Incidences that are not a lattice, a cosine basis and f16 records with an odd number of SH
+/// coefficients: the layout's other incidence layout, basis and packing. The golden files have
+/// no scattered or cosine-basis file.
+#[test]
+fn scattered_cosine_f16_material_is_laid_out_within_bounds() {
+    let set = common::paper_samples(15.0, 15.0, &[(20.0, 0.0), (20.0, 45.0), (40.0, 0.0)]);
+    let enc = common::encode_with(&set, |o| {
+        o.basis = sbrdf::model::SpectralBasis::Cosine;
+        o.precision = sbrdf::model::Precision::F16;
+        o.sh_level = Some(2); // 9 coefficients a term: odd, so a half word is left
+    });
+    let bytes = sbrdf::write_material(&enc.material).unwrap();
+    let words = Decoder::from_bytes(&bytes).unwrap().gpu_layout().unwrap();
+    check_bounds(&words, "scattered");
+    assert_eq!(words[3], 2, "incidence layout: scattered");
+    assert_eq!(words[4], 2, "basis: cosine");
+    let first_record = words[17] as usize;
+    assert_eq!(words[first_record + 7], 2, "f16 pairs");
+    let ratio = (4 * words.len()) as f64 / bytes.len() as f64;
+    println!("scattered cosine f16: ratio {ratio:.3}");
+    assert!(ratio <= 1.5);
+}
