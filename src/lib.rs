@@ -17,6 +17,7 @@
 //! | [`model`] | always | what a file holds and the math both sides share |
 //! | [`format`](mod@format) | always | bytes: signature, chunks and CRCs, limits, reader and writer |
 //! | [`decode`] | always | the decoder, incidence blending, sampling, colour, the C ABI |
+//! | [`gpu`] | always | the WGSL module that evaluates the decoder's flat device layout |
 //! | [`encode`] | `encode` | from samples to a material: the fitters, budgets, subset, info |
 //! | [`io`] | `cli` | files in and out: CSV, EXR, atomic output, synthetic materials |
 //! | [`report`] | `cli` | pictures and studies: plots, previews, paper figures, the trade-off |
@@ -52,6 +53,7 @@ pub mod error;
 
 pub mod decode;
 pub mod format;
+pub mod gpu;
 pub mod model;
 
 #[cfg(feature = "encode")]

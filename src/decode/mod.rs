@@ -6,7 +6,7 @@ mod at_wavelength;
 mod batch;
 mod blend;
 pub mod capi;
-mod cie;
+pub(crate) mod cie;
 pub mod color;
 pub mod decoder;
 mod draw;

@@ -1,0 +1,1057 @@
+// sbrdf.wgsl: evaluation of an sbrdf material from its flat device layout
+// (spec/GPU_LAYOUT.md, layout version 1) in WGSL, all in f32.
+//
+// HOW TO USE. Paste (or concatenate) this text after the host shader's own declarations. It
+// declares NO binding itself: it reads the layout words from a storage array named
+// `sbrdf_words` that the host must declare, for example
+//
+//     @group(0) @binding(0) var<storage, read> sbrdf_words: array<u32>;
+//
+// filled with the words `Decoder::gpu_layout()` returns (several materials may be concatenated;
+// a material is addressed by the word offset `base` where its layout starts). Every identifier
+// this module declares starts with `sbrdf_` / `SBRDF_`.
+//
+// FUNCTIONS.
+//   sbrdf_eval(base, wi, wo, lambda_nm) -> f32
+//       rho(wi, wo, lambda) in 1/sr, as `Decoder::eval` computes it: never negative.
+//   sbrdf_eval_rgb(base, wi, wo) -> vec3<f32>
+//       linear sRGB under D65, as `Decoder::eval_linear_srgb(wi, wo, Illuminant::D65)`:
+//       the spectrum at 380..780 nm every 5 nm (each value clamped at 0), weighted by
+//       D65 times the CIE 1931 2-degree observer, normalised so that Y of a constant 1 is 1,
+//       then the IEC 61966-2-1 XYZ -> linear sRGB matrix.
+//
+// CONVENTIONS (those of `Decoder::eval`, spec/EVALUATION.md). wi points toward the light and
+// wo toward the viewer, both in the local frame with z the surface normal. They need not be of
+// unit length (they are normalised here, as the CPU decoder does); a zero, non-finite or
+// below-horizon (z < 0 after normalisation) direction gives 0. Wavelengths are in nm; a
+// non-finite wavelength gives 0; a wavelength outside the file's range is held at the range's
+// end (the spectral basis clamps it). The layout is assumed valid (made by `gpu_layout()`):
+// nothing here bounds-checks offsets.
+//
+// NOT COVERED. Importance sampling and its pdf (layout version 1 does not hold the mixture
+// weights); files that `gpu_layout()` refuses (factor model FACT, warped tables WARP). No
+// check of the header's magic or version is made per query: the host checks them once.
+//
+// PRECISION. Everything is f32; the CPU decoder computes in f64. The places where f32 would
+// lose more than a few units in the last place are written specially; each says why below.
+// The WGSL built-ins sin/cos/atan2/log/pow carry loose precision guarantees (sin and cos only
+// an absolute 2^-11 in the Vulkan rules, log an absolute 2^-21 near 1, pow inherits exp2(log2))
+// so this module carries its own sine/cosine, arctangent and logarithm; only exp and sqrt are
+// the built-ins.
+
+const SBRDF_MAX_TERMS: u32 = 256u; // K <= 256 (spec/FORMAT.md)
+const SBRDF_MAX_SH: u32 = 441u; // (20 + 1)^2: SH level <= 20
+const SBRDF_MAX_BLEND: u32 = 4u; // at most 4 records are blended (2 when isotropic)
+const SBRDF_MAX_LOBES: u32 = 8u; // at most 8 lobes per record
+const SBRDF_PI: f32 = 3.14159265358979;
+const SBRDF_DEG: f32 = 0.0174532925199433; // pi / 180
+const SBRDF_RAD: f32 = 57.2957795130823; // 180 / pi
+
+// ------------------------------------------------------------------ words
+
+fn sbrdf_u(i: u32) -> u32 {
+    return sbrdf_words[i];
+}
+
+fn sbrdf_f(i: u32) -> f32 {
+    return bitcast<f32>(sbrdf_words[i]);
+}
+
+// Value i of a record's array at absolute word `o` (GPU_LAYOUT.md, "Value encodings").
+fn sbrdf_value(o: u32, i: u32, enc: u32, scale: f32) -> f32 {
+    if (enc == 1u) {
+        return sbrdf_f(o + i);
+    }
+    let pair = unpack2x16float(sbrdf_words[o + (i >> 1u)]);
+    return select(pair.x, pair.y, (i & 1u) == 1u) * scale;
+}
+
+// Not NaN and not +-Inf, from the bits: a comparison-based test can be folded away by a
+// compiler allowed to assume finite arithmetic.
+fn sbrdf_finite(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+
+// ------------------------------------------------------------------ elementary functions
+
+// sin and cos of x (radians, |x| <= pi/4 + a little) rotated by `quadrant` quarter turns.
+// Taylor polynomials to x^11 / x^12: the truncation error at pi/4 is below 1e-11, so the result
+// is the f32 rounding of the products alone.
+fn sbrdf_sincos_reduced(x: f32, quadrant: i32) -> vec2<f32> {
+    let x2 = x * x;
+    let s = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0
+        + x2 * (1.0 / 362880.0 + x2 * (-1.0 / 39916800.0))))));
+    let c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0
+        + x2 * (-1.0 / 3628800.0 + x2 * (1.0 / 479001600.0))))));
+    let q = quadrant & 3;
+    if (q == 0) {
+        return vec2<f32>(s, c);
+    } else if (q == 1) {
+        return vec2<f32>(c, -s);
+    } else if (q == 2) {
+        return vec2<f32>(-s, -c);
+    }
+    return vec2<f32>(-c, s);
+}
+
+// (sin, cos) of an angle in degrees. The reduction by quarter turns is done in degrees, where
+// it is exact for the stored angles (a - 90q is exact in f32 for |a| < 2^17), so only the final
+// conversion of |r| <= 45 degrees to radians rounds; radians first would round pi/2 multiples.
+fn sbrdf_sincos_deg(a: f32) -> vec2<f32> {
+    let q = round(a / 90.0);
+    let r = a - q * 90.0;
+    return sbrdf_sincos_reduced(r * SBRDF_DEG, i32(q));
+}
+
+// (sin, cos) of 2 pi p, p in turns (the spectral bases' phases, already reduced to [0, 1)).
+fn sbrdf_sincos_turns(p: f32) -> vec2<f32> {
+    let q = round(p * 4.0);
+    let r = p - q * 0.25;
+    return sbrdf_sincos_reduced(r * (2.0 * SBRDF_PI), i32(q));
+}
+
+// The unit vector of (theta, phi) in degrees ("Directions").
+fn sbrdf_dir(theta: f32, phi: f32) -> vec3<f32> {
+    let t = sbrdf_sincos_deg(theta);
+    let p = sbrdf_sincos_deg(phi);
+    return vec3<f32>(t.x * p.y, t.x * p.x, t.y);
+}
+
+// atan(x) for 0 <= x <= 1, radians: Abramowitz & Stegun 4.4.49 (the polynomial the CPU decoder
+// uses for theta), written as x times a polynomial in x^2 so that it stays accurate relative to
+// the result for small x (a small angle keeps its relative precision).
+fn sbrdf_atan01(x: f32) -> f32 {
+    let x2 = x * x;
+    let p = -0.3333314528 + x2 * (0.1999355085 + x2 * (-0.1420889944 + x2 * (0.1065626393
+        + x2 * (-0.0752896400 + x2 * (0.0429096138 + x2 * (-0.0161657367
+        + x2 * 0.0028662257))))));
+    return x + x * x2 * p;
+}
+
+// atan2(y, x) in degrees, in (-180, 180]; 0 for (0, 0). The complement to 90 and 180 is taken
+// in degrees, where 90 and 180 are exact (pi/2 in f32 is not).
+fn sbrdf_atan2_deg(y: f32, x: f32) -> f32 {
+    let ax = abs(x);
+    let ay = abs(y);
+    let hi = max(ax, ay);
+    if (hi == 0.0) {
+        return 0.0;
+    }
+    var a = sbrdf_atan01(min(ax, ay) / hi) * SBRDF_RAD;
+    if (ay > ax) {
+        a = 90.0 - a;
+    }
+    if (x < 0.0) {
+        a = 180.0 - a;
+    }
+    if (y < 0.0) {
+        a = -a;
+    }
+    return a;
+}
+
+// atan2(y, x) in radians for y >= 0, x >= 0 (angles between two directions: both are lengths).
+fn sbrdf_atan2_pos(y: f32, x: f32) -> f32 {
+    let hi = max(x, y);
+    if (hi == 0.0) {
+        return 0.0;
+    }
+    let a = sbrdf_atan01(min(x, y) / hi);
+    return select(a, 0.5 * SBRDF_PI - a, y > x);
+}
+
+// log(1 + f) for |f| <= 0.42: 2 atanh(f / (2 + f)) as its odd series. |t| <= 0.27, t^2 <= 0.073,
+// the series to t^17 leaves a truncation error below 1e-10. Exact near f = 0 relative to the
+// result, which the built-in log (absolute 2^-21 near 1) is not: a cosine power or a microfacet
+// distribution raises this logarithm's argument to large exponents.
+fn sbrdf_log1p_small(f: f32) -> f32 {
+    let t = f / (2.0 + f);
+    let t2 = t * t;
+    let s = 1.0 + t2 * (1.0 / 3.0 + t2 * (1.0 / 5.0 + t2 * (1.0 / 7.0 + t2 * (1.0 / 9.0
+        + t2 * (1.0 / 11.0 + t2 * (1.0 / 13.0 + t2 * (1.0 / 15.0 + t2 * (1.0 / 17.0))))))));
+    return 2.0 * t * s;
+}
+
+// Natural logarithm of x > 0 (finite, normal or subnormal): x = m 2^e with m in
+// [sqrt(1/2), sqrt(2)), log m from the series above (m - 1 is exact there), e ln 2 split in two
+// parts so that it adds no rounding of its own beyond the final sum.
+fn sbrdf_ln(x: f32) -> f32 {
+    let fe = frexp(x);
+    var m = fe.fract;
+    var e = f32(fe.exp);
+    if (m < 0.70710678) {
+        m = m * 2.0;
+        e = e - 1.0;
+    }
+    let ln2_hi = 0.693145752; // 0x3f317200: e * ln2_hi is exact for |e| < 2^8
+    let ln2_lo = 1.42860677e-6;
+    return e * ln2_hi + (e * ln2_lo + sbrdf_log1p_small(m - 1.0));
+}
+
+// log(1 + x), x > -1, accurate relative to the result for small x.
+fn sbrdf_log1p(x: f32) -> f32 {
+    if (abs(x) <= 0.41) {
+        return sbrdf_log1p_small(x);
+    }
+    return sbrdf_ln(1.0 + x);
+}
+
+// ------------------------------------------------------------------ spherical harmonics
+
+// Real SH Y_0..Y_{(level+1)^2-1} at the unit vector w ("Spherical harmonics", Cartesian form),
+// into y. The associated Legendre part is carried already normalised (the recurrence of
+// K_l^m Q_l^m): the unnormalised Q_l^m and the factorial ratio of K_l^m overflow f32 from
+// level 17 on ((2m-1)!! and (l+m)! up to 40!), and their product would lose precision.
+fn sbrdf_sh_eval(level: u32, w: vec3<f32>, y: ptr<function, array<f32, 441>>) {
+    let x = w.x;
+    let yy = w.y;
+    let z = w.z;
+    var c = 1.0; // C_m
+    var s = 0.0; // S_m
+    var pmm = 0.28209479177387814; // K_0^0 Q_0^0 = sqrt(1 / (4 pi))
+    for (var m = 0u; m <= level; m = m + 1u) {
+        if (m > 0u) {
+            let c2 = x * c - yy * s;
+            s = yy * c + x * s;
+            c = c2;
+            let fm = f32(m);
+            pmm = pmm * sqrt((2.0 * fm + 1.0) / (2.0 * fm));
+        }
+        let fm = f32(m);
+        var p2 = 0.0; // P_{l-2}^m
+        var p1 = pmm; // P_{l-1}^m
+        for (var l = m; l <= level; l = l + 1u) {
+            var p = pmm;
+            let fl = f32(l);
+            if (l == m + 1u) {
+                p = sqrt(2.0 * fm + 3.0) * z * pmm;
+            } else if (l > m + 1u) {
+                let a = sqrt((4.0 * fl * fl - 1.0) / (fl * fl - fm * fm));
+                let b = sqrt(((fl - 1.0) * (fl - 1.0) - fm * fm) / (4.0 * (fl - 1.0) * (fl - 1.0) - 1.0));
+                p = a * (z * p1 - b * p2);
+            }
+            if (l > m) {
+                p2 = p1;
+                p1 = p;
+            }
+            let centre = l * (l + 1u);
+            if (m == 0u) {
+                (*y)[centre] = p;
+            } else {
+                (*y)[centre + m] = 1.41421356237 * p * c;
+                (*y)[centre - m] = 1.41421356237 * p * s;
+            }
+        }
+    }
+}
+
+// ------------------------------------------------------------------ lobes
+
+// The angle between two unit vectors, radians, as 2 atan2(|a - b|, |a + b|): exact relative to
+// a small angle, where acos(dot) or atan2(|a x b|, a . b) lose it (1 - cos of a 1e-3 rad angle
+// is 5e-7, a few f32 units of 1). Angle Gaussians with tiny widths square this angle.
+fn sbrdf_angle(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return 2.0 * sbrdf_atan2_pos(length(a - b), length(a + b));
+}
+
+// max(0, w . p)^n (kind 4). Written as exp(n log(1 - 2 sin^2(alpha/2))) with
+// sin^2(alpha/2) = |w - p|^2 / 4: near the peak, where a large n makes the value sensitive,
+// 1 - cos is then known to its relative precision instead of the absolute 6e-8 of a dot product
+// (n = 10^4 would turn the latter into 6e-4 of relative error).
+fn sbrdf_cos_power(w: vec3<f32>, p: vec3<f32>, n: f32) -> f32 {
+    let cos_a = dot(w, p);
+    if (n == 0.0) {
+        return 1.0; // 0^0 = 1, as the reference decoder's ** gives
+    }
+    if (cos_a <= 0.0) {
+        return 0.0;
+    }
+    let d = w - p;
+    let x = min(0.5 * dot(d, d), 1.0); // 1 - cos alpha
+    if (x >= 1.0) {
+        return 0.0;
+    }
+    return exp(n * sbrdf_log1p(-x));
+}
+
+// Microfacet geometry and the four variants of kinds 2, 3 and 5 ("Lobes"). `kind` 2 or 3 with
+// (b, c, a) in p.xyz; kind 5 with (bx, by, c) in p.xyz and (ax, ay, psi) in q.xyz.
+fn sbrdf_microfacet(kind: u32, p: vec3<f32>, q: vec3<f32>, wi: vec3<f32>, w: vec3<f32>) -> vec4<f32> {
+    let sv = wi + w;
+    let s2 = dot(sv, sv);
+    if (s2 == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let sn = sqrt(s2);
+    let h = sv / sn;
+    let ch = clamp(h.z, 0.0, 1.0);
+    // 1 - wi.h = |wi - h|^2 / 2 for unit vectors: F = (1 - cd)^5 keeps its relative precision
+    // near cd = 1 (cd clamped to [1e-6, 1] as the spec says, so 1 - cd <= 1 - 1e-6).
+    let dh = wi - h;
+    let one_minus_cd = clamp(0.5 * dot(dh, dh), 0.0, 1.0 - 1e-6);
+    let cd = clamp(dot(wi, h), 1e-6, 1.0);
+    let ci = max(wi.z, 1e-6);
+    let co = max(w.z, 1e-6);
+    let vc = min(1.0 / (ci * co), min(2.0 * ch / (cd * ci), 2.0 * ch / (cd * co)));
+    let f2 = one_minus_cd * one_minus_cd;
+    let f = f2 * f2 * one_minus_cd;
+    // The horizontal part of s: 1 - h.z and 1 - h.z^2 are taken from it, not by subtracting
+    // h.z from 1, because the distribution (1 + b x)^-c with a large b (a small roughness)
+    // multiplies x's error by b.
+    let r2 = sv.x * sv.x + sv.y * sv.y;
+    var dist = 0.0;
+    var vs = 0.0;
+    if (kind == 5u) {
+        let cs = sbrdf_sincos_deg(q.z);
+        let hu = h.x * cs.y + h.y * cs.x;
+        let hv = h.y * cs.y - h.x * cs.x;
+        let iu = wi.x * cs.y + wi.y * cs.x;
+        let iv = wi.y * cs.y - wi.x * cs.x;
+        let ou = w.x * cs.y + w.y * cs.x;
+        let ov = w.y * cs.y - w.x * cs.x;
+        dist = exp(-p.z * sbrdf_log1p(p.x * hu * hu + p.y * hv * hv));
+        vs = 1.0 / (co * sqrt(ci * ci + q.x * q.x * iu * iu + q.y * q.y * iv * iv)
+            + ci * sqrt(co * co + q.x * q.x * ou * ou + q.y * q.y * ov * ov));
+    } else {
+        var x = 1.0;
+        if (sv.z > 0.0) {
+            if (kind == 2u) {
+                x = r2 / (sn * (sn + sv.z)); // 1 - h.z
+            } else {
+                x = r2 / s2; // 1 - h.z^2
+            }
+        }
+        dist = exp(-p.y * sbrdf_log1p(p.x * x));
+        let a2 = p.z * p.z;
+        vs = 1.0 / (co * sqrt(a2 + (1.0 - a2) * ci * ci) + ci * sqrt(a2 + (1.0 - a2) * co * co));
+    }
+    return vec4<f32>(dist * vs, dist * vs * f, dist * vc, dist * vc * f);
+}
+
+// ------------------------------------------------------------------ the query
+
+struct SbrdfBlend {
+    n: u32, // records blended (1..4), in increasing record index
+    rec: array<u32, 4>,
+    w: array<f32, 4>,
+    theta: f32, // the evaluation incidence (theta*, phi*), degrees
+    phi: f32,
+    wi: vec3<f32>, // its direction, in the records' frame
+}
+
+// v / |v| with (1, 1, 1, 1) in .w, or all 0 when v is zero, not finite, or below the horizon
+// (the CPU decoder's `upper`). Scaled by its largest component first so that |v|^2 neither
+// overflows nor underflows in f32 (the CPU widens to f64).
+fn sbrdf_upper(v: vec3<f32>) -> vec4<f32> {
+    if (!(sbrdf_finite(v.x) && sbrdf_finite(v.y) && sbrdf_finite(v.z))) {
+        return vec4<f32>(0.0);
+    }
+    let m = max(abs(v.x), max(abs(v.y), abs(v.z)));
+    if (m == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let u = v / m;
+    let n = u / length(u);
+    if (n.z < 0.0) {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(n, 1.0);
+}
+
+fn sbrdf_wrap360(x: f32) -> f32 {
+    var r = x % 360.0;
+    if (r < 0.0) {
+        r = r + 360.0;
+    }
+    return select(r, 0.0, r >= 360.0);
+}
+
+// "Between stored incidences", Bracketing, over n f32 words at `o`: (i, t) in (.x as bits, .y).
+fn sbrdf_bracket(o: u32, n: u32, x: f32) -> vec2<f32> {
+    if (n == 1u || x <= sbrdf_f(o)) {
+        return vec2<f32>(0.0, 0.0);
+    }
+    if (x >= sbrdf_f(o + n - 1u)) {
+        return vec2<f32>(bitcast<f32>(n - 2u), 1.0);
+    }
+    // Largest i with xs[i] <= x < xs[i + 1]: binary search, 32 steps bound any u32 count.
+    var lo = 0u;
+    var hi = n - 1u;
+    for (var it = 0u; it < 32u; it = it + 1u) {
+        if (hi - lo <= 1u) {
+            break;
+        }
+        let mid = (lo + hi) >> 1u;
+        if (sbrdf_f(o + mid) <= x) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let a = sbrdf_f(o + lo);
+    let b = sbrdf_f(o + lo + 1u);
+    return vec2<f32>(bitcast<f32>(lo), (x - a) / (b - a));
+}
+
+fn sbrdf_blend_add(bl: ptr<function, SbrdfBlend>, rec: u32, w: f32) {
+    for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
+        if (i >= (*bl).n) {
+            break;
+        }
+        if ((*bl).rec[i] == rec) {
+            (*bl).w[i] = (*bl).w[i] + w;
+            return;
+        }
+    }
+    let n = (*bl).n;
+    (*bl).rec[n] = rec;
+    (*bl).w[n] = w;
+    (*bl).n = n + 1u;
+}
+
+// Step 4: the cells merged by record, sorted by record index, weights 0 dropped.
+fn sbrdf_blend_finish(bl: ptr<function, SbrdfBlend>) {
+    var out: SbrdfBlend = *bl;
+    out.n = 0u;
+    for (var it = 0u; it < SBRDF_MAX_BLEND; it = it + 1u) {
+        // selection: the smallest record index not yet taken with a positive weight
+        var best = 0xffffffffu;
+        var bw = 0.0;
+        for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
+            if (i < (*bl).n && (*bl).w[i] > 0.0 && (*bl).rec[i] < best
+                && (out.n == 0u || (*bl).rec[i] > out.rec[out.n - 1u])) {
+                best = (*bl).rec[i];
+                bw = (*bl).w[i];
+            }
+        }
+        if (best == 0xffffffffu) {
+            break;
+        }
+        out.rec[out.n] = best;
+        out.w[out.n] = bw;
+        out.n = out.n + 1u;
+    }
+    *bl = out;
+}
+
+// The record table entry of record r.
+fn sbrdf_rec(base: u32, r: u32) -> u32 {
+    return base + sbrdf_u(base + 17u) + 12u * r;
+}
+
+// The peak direction of record entry e.
+fn sbrdf_rec_peak(e: u32) -> vec3<f32> {
+    return sbrdf_dir(sbrdf_f(e + 2u), sbrdf_f(e + 3u));
+}
+
+// "Blended peak direction" of a lobe shared by the blended records (kinds 1 and 4).
+fn sbrdf_blended_peak(base: u32, bl: SbrdfBlend, isotropic: bool) -> vec3<f32> {
+    if (isotropic) {
+        var v = vec3<f32>(0.0);
+        for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
+            if (i < bl.n) {
+                v = v + bl.w[i] * sbrdf_rec_peak(sbrdf_rec(base, bl.rec[i]));
+            }
+        }
+        let n = length(v);
+        if (n != 0.0 && sbrdf_finite(n)) {
+            return v / n;
+        }
+    }
+    var dt = 0.0;
+    var dp = 0.0;
+    for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
+        if (i < bl.n) {
+            let e = sbrdf_rec(base, bl.rec[i]);
+            let ti = sbrdf_f(e);
+            let pi = sbrdf_f(e + 1u);
+            let tp = sbrdf_f(e + 2u);
+            let pp = sbrdf_f(e + 3u);
+            dt = dt + bl.w[i] * (tp - ti);
+            if (tp != 0.0) {
+                var off = (pp - (pi + 180.0)) % 360.0;
+                if (off > 180.0) {
+                    off = off - 360.0;
+                } else if (off <= -180.0) {
+                    off = off + 360.0;
+                }
+                dp = dp + bl.w[i] * off;
+            }
+        }
+    }
+    return sbrdf_dir(bl.theta + dt, sbrdf_wrap360(bl.phi + 180.0) + dp);
+}
+
+// The blended spectral coefficients at (wi, wo): ("Reconstruction", steps 1 to 4 and the
+// lobes), into coef[0..tmax); returns tmax, 0 when rho is 0 (step 1 and 2's refusals).
+fn sbrdf_coefficients(base: u32, wi_in: vec3<f32>, wo_in: vec3<f32>,
+    coef: ptr<function, array<f32, 256>>) -> u32 {
+    let ui4 = sbrdf_upper(wi_in);
+    let uo4 = sbrdf_upper(wo_in);
+    if (ui4.w == 0.0 || uo4.w == 0.0) {
+        return 0u;
+    }
+    let ui = ui4.xyz;
+    var wo = uo4.xyz;
+    let inc_layout = sbrdf_u(base + 3u);
+    let isotropic = inc_layout == 0u;
+    let n_rec = sbrdf_u(base + 8u);
+    let n_theta = sbrdf_u(base + 9u);
+    let n_phi = sbrdf_u(base + 10u);
+    let off_th = base + sbrdf_u(base + 15u);
+    let off_ph = base + sbrdf_u(base + 16u);
+
+    // theta of the query from its horizontal length and height (atan2, so that it keeps its
+    // precision near the normal, where acos(z) does not).
+    let r = sqrt(ui.x * ui.x + ui.y * ui.y);
+    let theta_q = sbrdf_atan2_deg(r, ui.z);
+    var wq = ui;
+    var phi_q = 0.0;
+    if (isotropic) {
+        // Step 3: turn the query so that wi has azimuth 0, with the azimuth's cosine and sine
+        // taken from the vector (no trigonometry).
+        var c = 1.0;
+        var s = 0.0;
+        if (r > 0.0) {
+            c = ui.x / r;
+            s = ui.y / r;
+        }
+        wq = vec3<f32>(r, 0.0, ui.z);
+        wo = vec3<f32>(c * wo.x + s * wo.y, -s * wo.x + c * wo.y, wo.z);
+    } else if (r > 0.0) {
+        phi_q = sbrdf_wrap360(sbrdf_atan2_deg(ui.y, ui.x));
+    }
+
+    // Step 4: the records to blend and the evaluation incidence.
+    var bl: SbrdfBlend;
+    bl.n = 0u;
+    if (inc_layout == 2u) {
+        // Scattered: the nearest stored incidence (largest cosine, the lowest index on ties).
+        var best = 0u;
+        var best_cos = -2.0;
+        for (var i = 0u; i < n_rec; i = i + 1u) {
+            let e = sbrdf_rec(base, i);
+            let cs = dot(sbrdf_dir(sbrdf_f(e), sbrdf_f(e + 1u)), ui);
+            if (cs > best_cos) {
+                best_cos = cs;
+                best = i;
+            }
+        }
+        let e = sbrdf_rec(base, best);
+        bl.n = 1u;
+        bl.rec[0] = best;
+        bl.w[0] = 1.0;
+        bl.theta = sbrdf_f(e);
+        bl.phi = sbrdf_f(e + 1u);
+        bl.wi = sbrdf_dir(bl.theta, bl.phi);
+    } else {
+        let th0 = sbrdf_f(off_th);
+        let th1 = sbrdf_f(off_th + n_theta - 1u);
+        bl.theta = clamp(theta_q, th0, th1);
+        let bt = sbrdf_bracket(off_th, n_theta, theta_q);
+        let i = bitcast<u32>(bt.x);
+        let t = bt.y;
+        let i2 = min(i + 1u, n_theta - 1u);
+        if (isotropic) {
+            sbrdf_blend_add(&bl, i, 1.0 - t);
+            sbrdf_blend_add(&bl, i2, t);
+            bl.phi = 0.0;
+            // theta unclamped: the evaluation direction is the query's own vector (more
+            // precise than rebuilding it from an f32 angle).
+            bl.wi = select(sbrdf_dir(bl.theta, 0.0), wq, bl.theta == theta_q);
+        } else {
+            var j = 0u;
+            var j2 = 0u;
+            var u = 0.0;
+            let p = phi_q;
+            if (n_phi > 1u) {
+                let p0 = sbrdf_f(off_ph);
+                let p1 = sbrdf_f(off_ph + n_phi - 1u);
+                if (p < p0 || p >= p1) {
+                    j = n_phi - 1u;
+                    j2 = 0u;
+                    u = sbrdf_wrap360(p - p1) / (p0 + 360.0 - p1);
+                } else {
+                    let bp = sbrdf_bracket(off_ph, n_phi, p);
+                    j = bitcast<u32>(bp.x);
+                    u = bp.y;
+                    j2 = j + 1u;
+                }
+            }
+            sbrdf_blend_add(&bl, i * n_phi + j, (1.0 - t) * (1.0 - u));
+            sbrdf_blend_add(&bl, i * n_phi + j2, (1.0 - t) * u);
+            sbrdf_blend_add(&bl, i2 * n_phi + j, t * (1.0 - u));
+            sbrdf_blend_add(&bl, i2 * n_phi + j2, t * u);
+            if (n_phi == 1u) {
+                bl.phi = sbrdf_f(off_ph); // a single stored azimuth is clamped to, like theta
+                bl.wi = sbrdf_dir(bl.theta, bl.phi);
+            } else {
+                bl.phi = phi_q;
+                bl.wi = select(sbrdf_dir(bl.theta, bl.phi), ui, bl.theta == theta_q);
+            }
+        }
+        sbrdf_blend_finish(&bl);
+    }
+    let wis = bl.wi;
+
+    // The blended records' largest term count, SH level and lobe count.
+    var tmax = 1u;
+    var lmax = 0u;
+    var mmax = 0u;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < bl.n) {
+            let e = sbrdf_rec(base, bl.rec[b]);
+            lmax = max(lmax, sbrdf_u(e + 4u));
+            tmax = max(tmax, sbrdf_u(e + 5u));
+            mmax = max(mmax, sbrdf_u(e + 6u));
+        }
+    }
+    tmax = min(tmax, SBRDF_MAX_TERMS);
+    lmax = min(lmax, 20u);
+    mmax = min(mmax, SBRDF_MAX_LOBES);
+    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+        if (k >= tmax) {
+            break;
+        }
+        (*coef)[k] = 0.0;
+    }
+
+    // The SH background: Y once at the largest level (a lower level's Y are its prefix).
+    var y: array<f32, 441>;
+    sbrdf_sh_eval(lmax, wo, &y);
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b >= bl.n) {
+            break;
+        }
+        let e = sbrdf_rec(base, bl.rec[b]);
+        let level = sbrdf_u(e + 4u);
+        let terms = sbrdf_u(e + 5u);
+        let enc = sbrdf_u(e + 7u);
+        let scale = sbrdf_f(e + 8u);
+        let o = base + sbrdf_u(e + 9u);
+        let pr = (level + 1u) * (level + 1u);
+        for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+            if (k >= terms) {
+                break;
+            }
+            var acc = 0.0;
+            for (var j = 0u; j < SBRDF_MAX_SH; j = j + 1u) {
+                if (j >= pr) {
+                    break;
+                }
+                acc = acc + sbrdf_value(o, k * pr + j, enc, scale) * y[j];
+            }
+            (*coef)[k] = (*coef)[k] + bl.w[b] * acc;
+        }
+    }
+
+    // The lobes, by position ("Lobes by position").
+    for (var li = 0u; li < SBRDF_MAX_LOBES; li = li + 1u) {
+        if (li >= mmax) {
+            break;
+        }
+        // Shared: more than one record blended, each with a lobe at li, all of one kind.
+        var shared_kind = 0u;
+        if (bl.n > 1u) {
+            shared_kind = 0xffffffffu;
+            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+                if (b < bl.n) {
+                    let e = sbrdf_rec(base, bl.rec[b]);
+                    var kind = 0u;
+                    if (li < sbrdf_u(e + 6u)) {
+                        kind = sbrdf_u(base + sbrdf_u(e + 10u) + 3u * li);
+                    }
+                    if (kind == 0u || (shared_kind != 0xffffffffu && kind != shared_kind)) {
+                        shared_kind = 0u;
+                        break;
+                    }
+                    shared_kind = kind;
+                }
+            }
+        }
+        if (shared_kind != 0u) {
+            sbrdf_add_shared_lobe(base, bl, isotropic, shared_kind, li, tmax, wis, wo, coef);
+        } else {
+            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+                if (b >= bl.n) {
+                    break;
+                }
+                let e = sbrdf_rec(base, bl.rec[b]);
+                if (li < sbrdf_u(e + 6u)) {
+                    sbrdf_add_lobe(base, e, li, bl.w[b], wis, wo, coef);
+                }
+            }
+        }
+    }
+    return tmax;
+}
+
+// One record's lobe li, times the blending weight wgt, added to coef.
+fn sbrdf_add_lobe(base: u32, e: u32, li: u32, wgt: f32, wis: vec3<f32>, w: vec3<f32>,
+    coef: ptr<function, array<f32, 256>>) {
+    let terms = sbrdf_u(e + 5u);
+    let enc = sbrdf_u(e + 7u);
+    let scale = sbrdf_f(e + 8u);
+    let lt = base + sbrdf_u(e + 10u) + 3u * li;
+    let kind = sbrdf_u(lt);
+    let amp = base + sbrdf_u(lt + 1u);
+    let par = base + sbrdf_u(lt + 2u);
+    if (kind == 1u || kind == 4u) {
+        let peak = sbrdf_rec_peak(e);
+        if (kind == 1u) {
+            let a = sbrdf_angle(w, peak);
+            let a2 = a * a;
+            for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+                if (k >= terms) {
+                    break;
+                }
+                let g = exp(-a2 / sbrdf_f(par + k));
+                (*coef)[k] = (*coef)[k] + wgt * sbrdf_value(amp, k, enc, scale) * g;
+            }
+        } else {
+            let f = sbrdf_cos_power(w, peak, sbrdf_f(par));
+            for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+                if (k >= terms) {
+                    break;
+                }
+                (*coef)[k] = (*coef)[k] + wgt * sbrdf_value(amp, k, enc, scale) * f;
+            }
+        }
+        return;
+    }
+    var q = vec3<f32>(0.0);
+    if (kind == 5u) {
+        q = vec3<f32>(sbrdf_f(par + 3u), sbrdf_f(par + 4u), sbrdf_f(par + 5u));
+    }
+    let p = vec3<f32>(sbrdf_f(par), sbrdf_f(par + 1u), sbrdf_f(par + 2u));
+    let v = sbrdf_microfacet(kind, p, q, wis, w);
+    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+        if (k >= terms) {
+            break;
+        }
+        let s = v.x * sbrdf_value(amp, k, enc, scale)
+            + v.y * sbrdf_value(amp, terms + k, enc, scale)
+            + v.z * sbrdf_value(amp, 2u * terms + k, enc, scale)
+            + v.w * sbrdf_value(amp, 3u * terms + k, enc, scale);
+        (*coef)[k] = (*coef)[k] + wgt * s;
+    }
+}
+
+// Sum over the blended records of weight times amplitude (variant j, term k) of lobe li:
+// the blended amplitude ("Lobes by position"); a record with fewer terms adds 0.
+fn sbrdf_shared_amp(base: u32, bl: SbrdfBlend, li: u32, j: u32, k: u32) -> f32 {
+    var a = 0.0;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < bl.n) {
+            let e = sbrdf_rec(base, bl.rec[b]);
+            let terms = sbrdf_u(e + 5u);
+            if (k < terms) {
+                let lt = base + sbrdf_u(e + 10u) + 3u * li;
+                let amp = base + sbrdf_u(lt + 1u);
+                a = a + bl.w[b] * sbrdf_value(amp, j * terms + k, sbrdf_u(e + 7u), sbrdf_f(e + 8u));
+            }
+        }
+    }
+    return a;
+}
+
+// Parameter i of lobe li of blended record b.
+fn sbrdf_shared_par(base: u32, bl: SbrdfBlend, b: u32, li: u32, i: u32) -> f32 {
+    let e = sbrdf_rec(base, bl.rec[b]);
+    let lt = base + sbrdf_u(e + 10u) + 3u * li;
+    return sbrdf_f(base + sbrdf_u(lt + 2u) + i);
+}
+
+// Weighted geometric mean of parameter i over the blended records: exp(sum w log x).
+fn sbrdf_shared_geo(base: u32, bl: SbrdfBlend, li: u32, i: u32) -> f32 {
+    var s = 0.0;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < bl.n) {
+            s = s + bl.w[b] * sbrdf_ln(sbrdf_shared_par(base, bl, b, li, i));
+        }
+    }
+    return exp(s);
+}
+
+// Weighted arithmetic mean of parameter i over the blended records.
+fn sbrdf_shared_lin(base: u32, bl: SbrdfBlend, li: u32, i: u32) -> f32 {
+    var s = 0.0;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < bl.n) {
+            s = s + bl.w[b] * sbrdf_shared_par(base, bl, b, li, i);
+        }
+    }
+    return s;
+}
+
+// A lobe present, of one kind, in every blended record ("Lobes by position"): amplitudes
+// blended linearly, shape parameters as the spec says, evaluated once.
+fn sbrdf_add_shared_lobe(base: u32, bl: SbrdfBlend, isotropic: bool, kind: u32, li: u32,
+    tmax: u32, wis: vec3<f32>, w: vec3<f32>, coef: ptr<function, array<f32, 256>>) {
+    if (kind == 1u || kind == 4u) {
+        let peak = sbrdf_blended_peak(base, bl, isotropic);
+        if (kind == 1u) {
+            let a = sbrdf_angle(w, peak);
+            let a2 = a * a;
+            for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+                if (k >= tmax) {
+                    break;
+                }
+                // The width of term k: the geometric mean over the records that have term k,
+                // their weights renormalised.
+                var s = 0.0;
+                var ws = 0.0;
+                for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+                    if (b < bl.n && k < sbrdf_u(sbrdf_rec(base, bl.rec[b]) + 5u)) {
+                        s = s + bl.w[b] * sbrdf_ln(sbrdf_shared_par(base, bl, b, li, k));
+                        ws = ws + bl.w[b];
+                    }
+                }
+                let width = exp(s / ws);
+                (*coef)[k] = (*coef)[k] + sbrdf_shared_amp(base, bl, li, 0u, k) * exp(-a2 / width);
+            }
+        } else {
+            let f = sbrdf_cos_power(w, peak, sbrdf_shared_geo(base, bl, li, 0u));
+            for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+                if (k >= tmax) {
+                    break;
+                }
+                (*coef)[k] = (*coef)[k] + sbrdf_shared_amp(base, bl, li, 0u, k) * f;
+            }
+        }
+        return;
+    }
+    var p = vec3<f32>(0.0);
+    var q = vec3<f32>(0.0);
+    if (kind == 5u) {
+        p = vec3<f32>(sbrdf_shared_geo(base, bl, li, 0u), sbrdf_shared_geo(base, bl, li, 1u),
+            sbrdf_shared_geo(base, bl, li, 2u));
+        // psi blended as an axis: the doubled angles' weighted mean, halved back to [0, 180);
+        // the first record's psi when that mean vanishes.
+        var x = 0.0;
+        var yv = 0.0;
+        var tw = 0.0;
+        for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+            if (b < bl.n) {
+                let cs = sbrdf_sincos_deg(2.0 * sbrdf_shared_par(base, bl, b, li, 5u));
+                x = x + bl.w[b] * cs.y;
+                yv = yv + bl.w[b] * cs.x;
+                tw = tw + abs(bl.w[b]);
+            }
+        }
+        var psi = sbrdf_shared_par(base, bl, 0u, li, 5u);
+        if (sqrt(x * x + yv * yv) > 1e-9 * tw) {
+            psi = 0.5 * sbrdf_atan2_deg(yv, x);
+            if (psi < 0.0) {
+                psi = psi + 180.0;
+            }
+            if (psi >= 180.0) {
+                psi = 0.0;
+            }
+        }
+        q = vec3<f32>(sbrdf_shared_lin(base, bl, li, 3u), sbrdf_shared_lin(base, bl, li, 4u), psi);
+    } else {
+        p = vec3<f32>(sbrdf_shared_geo(base, bl, li, 0u), sbrdf_shared_geo(base, bl, li, 1u),
+            sbrdf_shared_lin(base, bl, li, 2u));
+    }
+    let v = sbrdf_microfacet(kind, p, q, wis, w);
+    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+        if (k >= tmax) {
+            break;
+        }
+        let s = v.x * sbrdf_shared_amp(base, bl, li, 0u, k) + v.y * sbrdf_shared_amp(base, bl, li, 1u, k)
+            + v.z * sbrdf_shared_amp(base, bl, li, 2u, k) + v.w * sbrdf_shared_amp(base, bl, li, 3u, k);
+        (*coef)[k] = (*coef)[k] + s;
+    }
+}
+
+// ------------------------------------------------------------------ the spectrum
+
+// k u mod 1 for an integer k < 2^12 and u in [0, 1], accurate to the rounding of u itself:
+// u is split into a head of 12 bits (k times it is exact in f32, so its fraction is exact)
+// and a tail (whose product rounds at 2^-24 of a value below 2^-12 k). A plain fract(k u)
+// would lose log2(k) bits, and the Fourier basis goes up to k = 128 (K <= 256).
+fn sbrdf_frac_mul(k: f32, u: f32) -> f32 {
+    let head = floor(u * 4096.0) / 4096.0;
+    let tail = u - head;
+    return fract(fract(k * head) + k * tail);
+}
+
+// sum_k coef[k] B_k(lambda) ("Spectral basis"), before the clamp at 0.
+fn sbrdf_series(base: u32, coef: ptr<function, array<f32, 256>>, tmax: u32, lambda: f32) -> f32 {
+    let basis = sbrdf_u(base + 4u);
+    var v = 0.0;
+    if (basis == 3u) {
+        // Tabulated: linear between the wavelengths, held at the ends.
+        let nw = sbrdf_u(base + 7u);
+        let ow = base + sbrdf_u(base + 13u);
+        let tab = base + sbrdf_u(base + 14u);
+        var i = 0u;
+        var f = 0.0;
+        if (nw > 1u && lambda > sbrdf_f(ow)) {
+            let bw = sbrdf_bracket(ow, nw, lambda);
+            i = bitcast<u32>(bw.x);
+            f = bw.y;
+        }
+        for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+            if (k >= tmax) {
+                break;
+            }
+            var bk = sbrdf_f(tab + k * nw + i);
+            if (f != 0.0) {
+                bk = bk + f * (sbrdf_f(tab + k * nw + i + 1u) - bk);
+            }
+            v = v + (*coef)[k] * bk;
+        }
+        return v;
+    }
+    let lo = sbrdf_f(base + 11u);
+    let hi = sbrdf_f(base + 12u);
+    let lc = clamp(lambda, lo, hi);
+    var u = 0.0; // (lambda - lo) / (hi - lo) in [0, 1]
+    if (hi > lo) {
+        u = clamp((lc - lo) / (hi - lo), 0.0, 1.0);
+    }
+    if (basis == 1u) {
+        // Fourier: 1/2, cos(2 pi j u), sin(2 pi j u), ... with the phase j u reduced in turns.
+        v = 0.5 * (*coef)[0];
+        for (var k = 1u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+            if (k >= tmax) {
+                break;
+            }
+            let j = f32((k + 1u) / 2u);
+            let cs = sbrdf_sincos_turns(sbrdf_frac_mul(j, u));
+            v = v + (*coef)[k] * select(cs.x, cs.y, (k & 1u) == 1u);
+        }
+        return v;
+    }
+    // Cosine: cos(pi k u) = cos(2 pi (k u / 2)); k u / 2 in turns, reduced exactly.
+    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+        if (k >= tmax) {
+            break;
+        }
+        let cs = sbrdf_sincos_turns(sbrdf_frac_mul(f32(k), 0.5 * u));
+        v = v + (*coef)[k] * cs.y;
+    }
+    return v;
+}
+
+// rho(wi, wo, lambda) in 1/sr ("Reconstruction"), never negative.
+fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
+    if (!sbrdf_finite(lambda_nm)) {
+        return 0.0;
+    }
+    var coef: array<f32, 256>;
+    let tmax = sbrdf_coefficients(base, wi, wo, &coef);
+    if (tmax == 0u) {
+        return 0.0;
+    }
+    return max(0.0, sbrdf_series(base, &coef, tmax, lambda_nm));
+}
+
+// SBRDF_RGB_WEIGHTS[i] = M E(l_i) (xbar, ybar, zbar)(l_i) / sum_j E(l_j) ybar(l_j), at
+// l_i = 380 + 5 i nm, with E the CIE D65 illuminant and M the IEC 61966-2-1 XYZ -> linear sRGB
+// matrix: computed in f64 from src/decode/cie.rs and rounded to f32 (the Rust test
+// `gpu::tests::rgb_weights_match_cie_tables` recomputes them and requires equality).
+// BEGIN GENERATED RGB WEIGHTS
+const SBRDF_RGB_WEIGHTS = array<vec3<f32>, 81>(
+    vec3<f32>(2.736401984e-05, -2.328276423e-05, 1.628262398e-04),
+    vec3<f32>(4.671593342e-05, -3.981535338e-05, 2.787752019e-04),
+    vec3<f32>(9.227084956e-05, -7.896481111e-05, 5.534677184e-04),
+    vec3<f32>(2.081311832e-04, -1.788624504e-04, 1.256573712e-03),
+    vec3<f32>(4.672996583e-04, -4.035583115e-04, 2.836231375e-03),
+    vec3<f32>(7.922822260e-04, -6.881969166e-04, 4.849435296e-03),
+    vec3<f32>(1.546609681e-03, -1.354031148e-03, 9.583766572e-03),
+    vec3<f32>(2.759892493e-03, -2.437515883e-03, 1.733913086e-02),
+    vec3<f32>(4.749136046e-03, -4.239784554e-03, 3.046238422e-02),
+    vec3<f32>(7.102948148e-03, -6.446093787e-03, 4.724521562e-02),
+    vec3<f32>(8.666965179e-03, -8.031009696e-03, 6.062049791e-02),
+    vec3<f32>(1.039745938e-02, -9.939746000e-03, 7.841189206e-02),
+    vec3<f32>(1.102490071e-02, -1.100533362e-02, 9.235608578e-02),
+    vec3<f32>(1.014692709e-02, -1.088432595e-02, 9.960128367e-02),
+    vec3<f32>(8.166212589e-03, -1.001640875e-02, 1.043098345e-01),
+    vec3<f32>(4.965676926e-03, -8.131371811e-03, 1.028559729e-01),
+    vec3<f32>(9.962173644e-04, -5.570829380e-03, 9.857185930e-02),
+    vec3<f32>(-3.401535563e-03, -2.270789351e-03, 8.884947747e-02),
+    vec3<f32>(-8.086264133e-03, 1.892001717e-03, 7.355158031e-02),
+    vec3<f32>(-1.267186739e-02, 6.375672761e-03, 5.930695683e-02),
+    vec3<f32>(-1.695454493e-02, 1.107122749e-02, 4.586860165e-02),
+    vec3<f32>(-2.018727921e-02, 1.525892224e-02, 3.296456113e-02),
+    vec3<f32>(-2.306396887e-02, 1.948674209e-02, 2.322185598e-02),
+    vec3<f32>(-2.715048566e-02, 2.505821921e-02, 1.659374498e-02),
+    vec3<f32>(-3.188619763e-02, 3.168791905e-02, 1.148072910e-02),
+    vec3<f32>(-3.720433265e-02, 3.958408162e-02, 7.266716566e-03),
+    vec3<f32>(-4.192572087e-02, 4.800221324e-02, 3.321780590e-03),
+    vec3<f32>(-4.508018121e-02, 5.619459227e-02, -2.205446217e-04),
+    vec3<f32>(-4.588321596e-02, 6.315612793e-02, -2.905802568e-03),
+    vec3<f32>(-4.487327859e-02, 6.957427412e-02, -4.785246216e-03),
+    vec3<f32>(-4.126092792e-02, 7.430807501e-02, -6.219778676e-03),
+    vec3<f32>(-3.460315242e-02, 7.519462705e-02, -7.150949910e-03),
+    vec3<f32>(-2.645576373e-02, 7.454419136e-02, -7.755014580e-03),
+    vec3<f32>(-1.715937443e-02, 7.352319360e-02, -8.175541647e-03),
+    vec3<f32>(-6.358697079e-03, 7.122249156e-02, -8.348369971e-03),
+    vec3<f32>(5.758139770e-03, 6.661267579e-02, -8.177512325e-03),
+    vec3<f32>(1.869347319e-02, 6.106454879e-02, -7.842326537e-03),
+    vec3<f32>(3.217719868e-02, 5.473833531e-02, -7.382581942e-03),
+    vec3<f32>(4.581839591e-02, 4.774422199e-02, -6.816209294e-03),
+    vec3<f32>(6.009481102e-02, 4.094711691e-02, -6.268387195e-03),
+    vec3<f32>(7.392965257e-02, 3.372985125e-02, -5.651682150e-03),
+    vec3<f32>(8.360785246e-02, 2.544838935e-02, -4.824145231e-03),
+    vec3<f32>(9.070666879e-02, 1.786104217e-02, -4.032601137e-03),
+    vec3<f32>(9.958435595e-02, 1.182419062e-02, -3.459956497e-03),
+    vec3<f32>(1.052668318e-01, 6.579617504e-03, -2.926333109e-03),
+    vec3<f32>(1.069405451e-01, 2.130769892e-03, -2.411489375e-03),
+    vec3<f32>(1.049539819e-01, -1.181861269e-03, -1.967440592e-03),
+    vec3<f32>(9.910125285e-02, -3.422832349e-03, -1.572193112e-03),
+    vec3<f32>(9.059123695e-02, -4.696817603e-03, -1.241970807e-03),
+    vec3<f32>(7.853749394e-02, -5.092732143e-03, -9.516475839e-04),
+    vec3<f32>(6.598515064e-02, -4.939187318e-03, -7.182428380e-04),
+    vec3<f32>(5.619686842e-02, -4.661577754e-03, -5.551548093e-04),
+    vec3<f32>(4.682838172e-02, -4.186216742e-03, -4.249732592e-04),
+    vec3<f32>(3.705943376e-02, -3.499369835e-03, -3.131919948e-04),
+    vec3<f32>(2.855920233e-02, -2.800999442e-03, -2.285952505e-04),
+    vec3<f32>(2.211217955e-02, -2.230354119e-03, -1.692601509e-04),
+    vec3<f32>(1.672285981e-02, -1.721142093e-03, -1.236955577e-04),
+    vec3<f32>(1.246425696e-02, -1.299640746e-03, -9.008890629e-05),
+    vec3<f32>(9.111211635e-03, -9.598798351e-04, -6.461757584e-05),
+    vec3<f32>(6.474243943e-03, -6.876727566e-04, -4.521357914e-05),
+    vec3<f32>(4.646052606e-03, -4.973422620e-04, -3.196296893e-05),
+    vec3<f32>(3.091558581e-03, -3.332476772e-04, -2.097925790e-05),
+    vec3<f32>(2.010404831e-03, -2.175216214e-04, -1.354043889e-05),
+    vec3<f32>(1.422151458e-03, -1.542119862e-04, -9.536042853e-06),
+    vec3<f32>(1.033581677e-03, -1.121970417e-04, -6.915508948e-06),
+    vec3<f32>(7.521391381e-04, -8.164596511e-05, -5.032428817e-06),
+    vec3<f32>(5.470285541e-04, -5.938085451e-05, -3.660072480e-06),
+    vec3<f32>(3.549552639e-04, -3.853099042e-05, -2.374942142e-06),
+    vec3<f32>(2.269532852e-04, -2.463615783e-05, -1.518504178e-06),
+    vec3<f32>(1.711882651e-04, -1.858277210e-05, -1.145390456e-06),
+    vec3<f32>(1.278709242e-04, -1.388059445e-05, -8.555626323e-07),
+    vec3<f32>(9.210098506e-05, -9.997714187e-06, -6.162314889e-07),
+    vec3<f32>(6.584058428e-05, -7.147105862e-06, -4.405276570e-07),
+    vec3<f32>(4.194105350e-05, -4.552771316e-06, -2.806201849e-07),
+    vec3<f32>(2.685155232e-05, -2.914781135e-06, -1.796589544e-07),
+    vec3<f32>(1.641277595e-05, -1.781634296e-06, -1.098149838e-07),
+    vec3<f32>(9.799869076e-06, -1.063791615e-06, -6.556926735e-08),
+    vec3<f32>(8.446046195e-06, -9.168316524e-07, -5.651110868e-08),
+    vec3<f32>(7.052022738e-06, -7.655087870e-07, -4.718383906e-08),
+    vec3<f32>(4.855772204e-06, -5.271020882e-07, -3.248912606e-08),
+    vec3<f32>(3.343134722e-06, -3.629027958e-07, -2.236833119e-08),
+);
+// END GENERATED RGB WEIGHTS
+
+// Linear sRGB under D65 of rho(wi, wo, .) (Decoder::eval_linear_srgb with Illuminant::D65):
+// the coefficients once, then the series at each of the 81 wavelengths, clamped at 0.
+fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    var coef: array<f32, 256>;
+    let tmax = sbrdf_coefficients(base, wi, wo, &coef);
+    if (tmax == 0u) {
+        return vec3<f32>(0.0);
+    }
+    var rgb = vec3<f32>(0.0);
+    for (var i = 0u; i < 81u; i = i + 1u) {
+        let lambda = 380.0 + 5.0 * f32(i);
+        let s = max(0.0, sbrdf_series(base, &coef, tmax, lambda));
+        rgb = rgb + s * SBRDF_RGB_WEIGHTS[i];
+    }
+    return rgb;
+}
