@@ -98,16 +98,16 @@ impl Worst {
     fn check(&mut self, gpu: f32, cpu: f64, m: f64, what: impl FnOnce() -> String) {
         let tol = REL * cpu.abs() + ABS_OF_MAX * m;
         let err = (gpu as f64 - cpu).abs();
-        // A non-finite GPU value is an infinite error.
+        // A non-finite GPU value is an infinite error (so `ratio` is never NaN: tol > 0, M > 0).
         let ratio = if err.is_finite() {
             err / tol
         } else {
             f64::INFINITY
         };
-        if !(ratio <= 1.0) {
+        if ratio > 1.0 {
             self.failures += 1;
         }
-        if !(ratio <= self.ratio) {
+        if ratio > self.ratio {
             self.ratio = ratio;
             self.example = format!("{} gpu {gpu:e} cpu {cpu:e}", what());
         }
