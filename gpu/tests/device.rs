@@ -71,6 +71,20 @@ fn materials() -> (Vec<Material>, Vec<String>) {
     (covered, refused)
 }
 
+/// What both device tests start from: the covered materials (and the refused files' names), their
+/// layouts in one buffer, the shader with its host prelude, and the device.
+fn on_device() -> (Vec<Material>, Vec<String>, Buffer, String, Gpu) {
+    let (mats, refused) = materials();
+    let buf = concatenate(&mats.iter().map(|m| m.layout.clone()).collect::<Vec<_>>());
+    (
+        mats,
+        refused,
+        buf,
+        full_module(&shader_source()),
+        Gpu::new(),
+    )
+}
+
 /// A unit direction in the upper hemisphere, rounded to f32.
 fn direction(rng: &mut Rng) -> [f32; 3] {
     let theta = if rng.f64() < GRAZING_SHARE {
@@ -137,10 +151,7 @@ impl Worst {
 
 #[test]
 fn eval_matches_cpu_on_every_covered_sample() {
-    let (mats, refused) = materials();
-    let buf = concatenate(&mats.iter().map(|m| m.layout.clone()).collect::<Vec<_>>());
-    let module = full_module(&shader_source());
-    let gpu = Gpu::new();
+    let (mats, refused, buf, module, gpu) = on_device();
     let mut failed = Vec::new();
     for (mi, mat) in mats.iter().enumerate() {
         let mut rng = Rng(0x5B2D_F000 + mi as u64);
@@ -244,10 +255,7 @@ fn eval_matches_cpu_on_every_covered_sample() {
 /// non-finite vector) the device gives exactly 0 too.
 #[test]
 fn edge_directions_are_finite_and_zero_like_the_cpu() {
-    let (mats, _) = materials();
-    let buf = concatenate(&mats.iter().map(|m| m.layout.clone()).collect::<Vec<_>>());
-    let module = full_module(&shader_source());
-    let gpu = Gpu::new();
+    let (mats, _, buf, module, gpu) = on_device();
     let up = [0.3f32, 0.2, 0.932_737_9];
     let dir = |theta_deg: f64, phi_deg: f64| {
         let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
