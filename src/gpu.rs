@@ -57,22 +57,16 @@ mod tests {
     }
 
     /// The weights the shader must hold: what `color.rs` computes for a spectrum that is 1 at
-    /// wavelength i and 0 elsewhere, in f64 with its order of operations, rounded to f32.
+    /// wavelength i and 0 elsewhere (its own functions, so its order of operations), rounded to
+    /// f32.
     fn cie_weights() -> Vec<[f32; 3]> {
-        let mut norm = 0.0f64;
-        for i in 0..cie::COUNT {
-            norm += cie::D65[i] * cie::Y_BAR[i];
-        }
+        use crate::decode::color::{spectrum_to_xyz, xyz_to_linear_srgb, Illuminant};
         (0..cie::COUNT)
             .map(|i| {
-                let e = cie::D65[i];
-                let (x, y, z) = (
-                    e * cie::X_BAR[i] / norm,
-                    e * cie::Y_BAR[i] / norm,
-                    e * cie::Z_BAR[i] / norm,
-                );
-                let rgb = crate::decode::color::xyz_to_linear_srgb([x, y, z]);
-                [rgb[0] as f32, rgb[1] as f32, rgb[2] as f32]
+                let mut one = [0.0f32; cie::COUNT];
+                one[i] = 1.0;
+                let rgb = xyz_to_linear_srgb(spectrum_to_xyz(&one, Illuminant::D65));
+                rgb.map(|v| v as f32)
             })
             .collect()
     }
