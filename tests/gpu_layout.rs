@@ -17,7 +17,7 @@ fn golden(name: &str) -> Vec<u8> {
 fn check_bounds(w: &[u32], name: &str) {
     let total = w.len();
     assert_eq!(w[0], MAGIC, "{name}");
-    assert_eq!(w[1], 1, "{name}");
+    assert_eq!(w[1], 2, "{name}: layout version");
     assert_eq!(w[2] as usize, total, "{name}: total words");
     let (k, wl, n, t, p) = (
         w[5] as usize,
@@ -62,6 +62,24 @@ fn check_bounds(w: &[u32], name: &str) {
             };
             within(l[1], words(amps), "amplitudes");
             within(l[2], params, "parameters");
+        }
+    }
+    // The sampling section (word 18): a record index, then per record 1 + 2M f32 weights.
+    let s = w[18];
+    assert!(
+        s != 0,
+        "{name}: a records-based layout without a sampling section"
+    );
+    within(s, n, "sampling record index");
+    for r in 0..n {
+        let m = w[w[17] as usize + 12 * r + 6] as usize;
+        let at = w[s as usize + r];
+        within(at, 1 + 2 * m, "sampling weights");
+        for i in 0..1 + 2 * m {
+            let v = f32::from_bits(w[at as usize + i]);
+            assert!(v.is_finite(), "{name}: record {r} sampling word {i} is {v}");
+            // Lobe energies (odd positions) are ≥ 0; the background's may be negative.
+            assert!(i % 2 == 0 || v >= 0.0, "{name}: record {r} lobe energy {v}");
         }
     }
 }

@@ -159,7 +159,8 @@ impl Decoder {
     }
 
     /// The flat device layout of this material (`spec/GPU_LAYOUT.md`): 32-bit little-endian
-    /// words (f32 and u32) with a header of word offsets, for a shader to evaluate. Files with a
+    /// words (f32 and u32) with a header of word offsets, for a shader to evaluate, sample and
+    /// give the pdf of (the sampling section holds the weights [`Decoder::sample`] uses). Files with a
     /// factor model (`FACT`) or warped tables (`WARP`) are not covered by layout version 1 and
     /// give [`Error::Parameter`].
     ///
@@ -171,7 +172,18 @@ impl Decoder {
     /// # Ok::<(), sbrdf::Error>(())
     /// ```
     pub fn gpu_layout(&self) -> Result<Vec<u32>> {
-        super::gpu_layout::gpu_layout(&self.evaluator.res)
+        let mut words = super::gpu_layout::gpu_layout(&self.evaluator.res)?;
+        let res = &self.evaluator.res;
+        // The records' mixture weights (spec/GPU_LAYOUT.md, "Sampling section"); files whose ρ
+        // is not given by the records alone sample otherwise and get none.
+        if res.factor.is_none() && res.warped.is_none() {
+            super::gpu_sampling::append_sampling_section(
+                &mut words,
+                self.sampling_weights(),
+                res.recs.len(),
+            )?;
+        }
+        Ok(words)
     }
 
     /// Bytes this decoder holds in memory: the struct and everything it owns on the heap

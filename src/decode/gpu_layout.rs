@@ -12,7 +12,7 @@ use half::f16;
 /// `SBGL` read as a little-endian u32: the first word of every layout.
 pub const GPU_LAYOUT_MAGIC: u32 = u32::from_le_bytes(*b"SBGL");
 /// The version of `spec/GPU_LAYOUT.md` this module writes.
-pub const GPU_LAYOUT_VERSION: u32 = 1;
+pub const GPU_LAYOUT_VERSION: u32 = 2;
 /// Words in the header.
 const HEADER_WORDS: usize = 20;
 /// Words in a record table entry.

@@ -14,6 +14,7 @@ mod evaluator;
 mod general_coefficients;
 mod general_one_wavelength;
 pub mod gpu_layout;
+mod gpu_sampling;
 mod kernel;
 mod lattice;
 mod proposal;

@@ -114,6 +114,15 @@ impl SamplingWeights {
         SamplingWeights { background, lobes }
     }
 
+    /// Record `r`'s background energy and, per lobe, (energy, ln width): what the device
+    /// layout's sampling section stores (`spec/GPU_LAYOUT.md`, "Sampling section").
+    pub(crate) fn record(&self, r: usize) -> (f64, impl Iterator<Item = (f64, f64)> + '_) {
+        (
+            self.background[r],
+            self.lobes[r].iter().map(|l| (l.energy, l.ln_width)),
+        )
+    }
+
     /// Heap bytes held.
     pub(crate) fn heap_bytes(&self) -> usize {
         8 * self.background.capacity()

@@ -1,0 +1,51 @@
+//! The sampling section of the flat device layout (`spec/GPU_LAYOUT.md`, "Sampling section"):
+//! the per-record mixture weights that importance sampling computes when a file is opened
+//! ([`super::sampling::SamplingWeights`]), as f32 words, so that a shader draws and gives the
+//! pdf of the same mixture as [`crate::Decoder::sample`] and [`crate::Decoder::pdf`].
+
+use super::sampling::SamplingWeights;
+use crate::error::{Error, Result};
+
+/// Header word holding the sampling section's offset (0: none).
+pub(crate) const HEADER_SAMPLING: usize = 18;
+/// Header word holding `total_words`.
+const HEADER_TOTAL: usize = 2;
+
+/// Appends the sampling section of `records` records to the layout `out` (whose header is
+/// complete) and points header word 18 at it; `total_words` is updated.
+pub(crate) fn append_sampling_section(
+    out: &mut Vec<u32>,
+    weights: &SamplingWeights,
+    records: usize,
+) -> Result<()> {
+    let at = out.len();
+    // The record index: one offset per record, then each record's weights.
+    out.resize(at + records, 0);
+    for r in 0..records {
+        out[at + r] = word(out.len())?;
+        let (background, lobes) = weights.record(r);
+        out.push(f32_word(background));
+        for (energy, ln_width) in lobes {
+            out.push(f32_word(energy));
+            out.push(f32_word(ln_width));
+        }
+    }
+    out[HEADER_SAMPLING] = word(at)?;
+    out[HEADER_TOTAL] = word(out.len())?;
+    Ok(())
+}
+
+/// A weight as an f32 word. The decoder's weights are finite (energies are clamped to finite
+/// values ≥ 0 when computed, except the background's, which the mixture itself treats as 0 when
+/// not finite or negative); a value beyond f32's range becomes ±∞ or 0 here, which the shader
+/// treats exactly as the decoder treats a non-finite or zero weight.
+fn f32_word(v: f64) -> u32 {
+    (v as f32).to_bits()
+}
+
+/// An offset as a u32 word; a layout past 2³² words cannot be addressed.
+fn word(v: usize) -> Result<u32> {
+    u32::try_from(v).map_err(|_| {
+        Error::LimitsExceeded("gpu layout: more than 2^32 words cannot be addressed".into())
+    })
+}
