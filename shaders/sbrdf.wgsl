@@ -1060,3 +1060,595 @@ fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     }
     return rgb;
 }
+
+// ---- importance sampling (layout sampling section, header word 18) ----
+//
+// sbrdf_pdf(base, wi, wo) -> f32 and sbrdf_sample(base, wi, u) -> vec4<f32> (xyz the drawn
+// direction, w its pdf): the mixture of `Decoder::sample` / `Decoder::pdf` (spec/EVALUATION.md,
+// "Importance sampling"; spec/GPU_LAYOUT.md, "Sampling section") in f32. The records are blended
+// as for evaluation; the mixture is the cosine plus one proposal per lobe (cosine power about the
+// peak, von Mises-Fisher, GGX visible normals reflecting wi), weighted by the energies the layout
+// stores, the cosine keeping at least SBRDF_MIN_COSINE_WEIGHT; a draw below the horizon is
+// mirrored above it, and the pdf counts both images. u.x chooses the component exactly as the CPU
+// does (its rescaled remainder then draws from it), so that the same u gives the same direction
+// up to f32 rounding. A layout without a sampling section (word 18 = 0) samples the cosine:
+// pdf = cos(theta_o) / pi. sbrdf_sample returns vec4(0) where the CPU returns None (wi zero, not
+// finite or below the horizon, u not finite, a degenerate draw); sbrdf_pdf returns 0 where the
+// CPU's pdf is 0 (either direction zero, not finite or below the horizon).
+//
+// The block repeats the query's blending of sbrdf_coefficients (sbrdf_smp_query) rather than
+// calling into it, so that it needs no change there.
+
+const SBRDF_MAX_COMPONENTS: u32 = 33u; // the cosine + 4 blended records x 8 lobes
+const SBRDF_MIN_COSINE_WEIGHT: f32 = 0.1; // draw.rs MIN_COSINE_WEIGHT
+const SBRDF_ONE_BELOW: f32 = 0.99999994; // the largest f32 below 1: u is clamped to [0, this]
+
+// The query in the records' frame: the blend, and the rotation (cos, sin) into that frame
+// (isotropic files; (1, 0) otherwise).
+struct SbrdfQuery {
+    bl: SbrdfBlend,
+    rot: vec2<f32>,
+    isotropic: bool,
+}
+
+// One proposal: kind 0 cosine, 1 cosine power (a = (p, n)), 2 von Mises-Fisher (a = (p, kappa),
+// m = 1 - exp(-2 kappa)), 3 GGX visible normals (a = (ax, ay, axis.x, axis.y), m = k =
+// G1(wi) / (4 cos theta_i)).
+struct SbrdfShape {
+    kind: u32,
+    a: vec4<f32>,
+    m: f32,
+}
+
+struct SbrdfMix {
+    n: u32,
+    kind: array<u32, 33>,
+    a: array<vec4<f32>, 33>,
+    m: array<f32, 33>,
+    w: array<f32, 33>,
+    wi: vec3<f32>,
+}
+
+// exp(x) - 1, accurate relative to the result for small |x| (Taylor to x^10 below 1/2).
+fn sbrdf_expm1(x: f32) -> f32 {
+    if (abs(x) < 0.5) {
+        return x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0
+            + x * (1.0 / 720.0 + x * (1.0 / 5040.0 + x * (1.0 / 40320.0 + x * (1.0 / 362880.0
+            + x * (1.0 / 3628800.0))))))))));
+    }
+    return exp(x) - 1.0;
+}
+
+// The query's blend and frame, as sbrdf_coefficients makes them (step 3 and 4), for the unit
+// incident vector ui (z >= 0).
+fn sbrdf_smp_query(base: u32, ui: vec3<f32>) -> SbrdfQuery {
+    var q: SbrdfQuery;
+    let inc_layout = sbrdf_u(base + 3u);
+    q.isotropic = inc_layout == 0u;
+    q.rot = vec2<f32>(1.0, 0.0);
+    let n_rec = sbrdf_u(base + 8u);
+    let n_theta = sbrdf_u(base + 9u);
+    let n_phi = sbrdf_u(base + 10u);
+    let off_th = base + sbrdf_u(base + 15u);
+    let off_ph = base + sbrdf_u(base + 16u);
+    let r = sqrt(ui.x * ui.x + ui.y * ui.y);
+    let theta_q = sbrdf_atan2_deg(r, ui.z);
+    var wq = ui;
+    var phi_q = 0.0;
+    if (q.isotropic) {
+        if (r > 0.0) {
+            q.rot = vec2<f32>(ui.x / r, ui.y / r);
+        }
+        wq = vec3<f32>(r, 0.0, ui.z);
+    } else if (r > 0.0) {
+        phi_q = sbrdf_wrap360(sbrdf_atan2_deg(ui.y, ui.x));
+    }
+    var bl: SbrdfBlend;
+    bl.n = 0u;
+    if (inc_layout == 2u) {
+        var best = 0u;
+        var best_cos = -2.0;
+        for (var i = 0u; i < n_rec; i = i + 1u) {
+            let e = sbrdf_rec(base, i);
+            let cs = dot(sbrdf_dir(sbrdf_f(e), sbrdf_f(e + 1u)), ui);
+            if (cs > best_cos) {
+                best_cos = cs;
+                best = i;
+            }
+        }
+        let e = sbrdf_rec(base, best);
+        bl.n = 1u;
+        bl.rec[0] = best;
+        bl.w[0] = 1.0;
+        bl.theta = sbrdf_f(e);
+        bl.phi = sbrdf_f(e + 1u);
+        bl.wi = sbrdf_dir(bl.theta, bl.phi);
+    } else {
+        let th0 = sbrdf_f(off_th);
+        let th1 = sbrdf_f(off_th + n_theta - 1u);
+        bl.theta = clamp(theta_q, th0, th1);
+        let bt = sbrdf_bracket(off_th, n_theta, theta_q);
+        let i = bitcast<u32>(bt.x);
+        let t = bt.y;
+        let i2 = min(i + 1u, n_theta - 1u);
+        if (q.isotropic) {
+            sbrdf_smp_blend_add(&bl, i, 1.0 - t);
+            sbrdf_smp_blend_add(&bl, i2, t);
+            bl.phi = 0.0;
+            bl.wi = select(sbrdf_dir(bl.theta, 0.0), wq, bl.theta == theta_q);
+        } else {
+            var j = 0u;
+            var j2 = 0u;
+            var u = 0.0;
+            let p = phi_q;
+            if (n_phi > 1u) {
+                let p0 = sbrdf_f(off_ph);
+                let p1 = sbrdf_f(off_ph + n_phi - 1u);
+                if (p < p0 || p >= p1) {
+                    j = n_phi - 1u;
+                    j2 = 0u;
+                    u = sbrdf_wrap360(p - p1) / (p0 + 360.0 - p1);
+                } else {
+                    let bp = sbrdf_bracket(off_ph, n_phi, p);
+                    j = bitcast<u32>(bp.x);
+                    u = bp.y;
+                    j2 = j + 1u;
+                }
+            }
+            sbrdf_smp_blend_add(&bl, i * n_phi + j, (1.0 - t) * (1.0 - u));
+            sbrdf_smp_blend_add(&bl, i * n_phi + j2, (1.0 - t) * u);
+            sbrdf_smp_blend_add(&bl, i2 * n_phi + j, t * (1.0 - u));
+            sbrdf_smp_blend_add(&bl, i2 * n_phi + j2, t * u);
+            if (bl.n == 0u) {
+                sbrdf_blend_add(&bl, i * n_phi + j, 1.0); // as the CPU (no weight > 0)
+            }
+            if (n_phi == 1u) {
+                bl.phi = sbrdf_f(off_ph);
+                bl.wi = sbrdf_dir(bl.theta, bl.phi);
+            } else {
+                bl.phi = phi_q;
+                bl.wi = select(sbrdf_dir(bl.theta, bl.phi), ui, bl.theta == theta_q);
+            }
+        }
+    }
+    q.bl = bl;
+    return q;
+}
+
+// Record rec with weight w added to the query's blend as the CPU's Blend::push adds it: a weight
+// <= 0 is dropped, a record already there gets the weight added, records stay in the order they
+// were first added (not sorted: the mixture's components follow this order, and u.x picks among
+// them in it).
+fn sbrdf_smp_blend_add(bl: ptr<function, SbrdfBlend>, rec: u32, w: f32) {
+    if (!(w > 0.0)) {
+        return;
+    }
+    sbrdf_blend_add(bl, rec, w);
+}
+
+// A local-frame vector in the records' frame, and back.
+fn sbrdf_smp_in(q: SbrdfQuery, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(q.rot.x * v.x + q.rot.y * v.y, -q.rot.y * v.x + q.rot.x * v.y, v.z);
+}
+
+fn sbrdf_smp_out(q: SbrdfQuery, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(q.rot.x * v.x - q.rot.y * v.y, q.rot.y * v.x + q.rot.x * v.y, v.z);
+}
+
+// Absolute word of record r's weights: background energy, then (energy, ln width) per lobe.
+fn sbrdf_smp_weights(base: u32, r: u32) -> u32 {
+    return base + sbrdf_u(base + sbrdf_u(base + 18u) + r);
+}
+
+// The GGX roughness whose distribution falls to half its peak where (1 + b s)^(-c) does
+// (proposal.rs ggx_alpha): s = sin^2 theta_h (sin2) or 1 - cos theta_h.
+fn sbrdf_ggx_alpha(sin2: bool, b: f32, c: f32) -> f32 {
+    var hp = sbrdf_expm1(0.693147181 / c) / b;
+    if (!(hp < 1.0)) {
+        hp = 1.0; // also a NaN, as f64::min(NaN, 1) gives 1
+    }
+    var s2 = hp;
+    if (!sin2) {
+        s2 = hp * (2.0 - hp);
+    }
+    if (!(s2 > 0.0)) {
+        return 1e-6;
+    }
+    let b_ggx = 0.414213562 / s2; // (sqrt 2 - 1) / s2
+    return clamp(sqrt(1.0 / (1.0 + b_ggx)), 1e-6, 1.0);
+}
+
+// GGX visible normals of roughness (ax, ay) along the surface axis (cos psi, sin psi), for wi.
+fn sbrdf_ggx_shape(ax: f32, ay: f32, axis: vec2<f32>, wi: vec3<f32>) -> SbrdfShape {
+    let cz = max(wi.z, 0.0);
+    let wu = wi.x * axis.x + wi.y * axis.y;
+    let wv = wi.y * axis.x - wi.x * axis.y;
+    let t = min(ax * ax * wu * wu + ay * ay * wv * wv, 1.0);
+    return SbrdfShape(3u, vec4<f32>(ax, ay, axis.x, axis.y), 0.5 / (cz + sqrt(cz * cz + t)));
+}
+
+fn sbrdf_vmf_shape(p: vec3<f32>, ln_b: f32) -> SbrdfShape {
+    let kappa = 2.0 * exp(-ln_b);
+    return SbrdfShape(2u, vec4<f32>(p, kappa), -sbrdf_expm1(-2.0 * kappa));
+}
+
+// The axis angle psi of lobe li blended over the records (as sbrdf_add_shared_lobe blends it).
+fn sbrdf_smp_axis(base: u32, bl: SbrdfBlend, li: u32) -> f32 {
+    var x = 0.0;
+    var yv = 0.0;
+    var tw = 0.0;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < bl.n) {
+            let cs = sbrdf_sincos_deg(2.0 * sbrdf_shared_par(base, bl, b, li, 5u));
+            x = x + bl.w[b] * cs.y;
+            yv = yv + bl.w[b] * cs.x;
+            tw = tw + abs(bl.w[b]);
+        }
+    }
+    var psi = sbrdf_shared_par(base, bl, 0u, li, 5u);
+    if (sqrt(x * x + yv * yv) > 1e-9 * tw) {
+        psi = 0.5 * sbrdf_atan2_deg(yv, x);
+        if (psi < 0.0) {
+            psi = psi + 180.0;
+        }
+        if (psi >= 180.0) {
+            psi = 0.0;
+        }
+    }
+    return psi;
+}
+
+// Lobe li of blended record b alone (its own peak and parameters).
+fn sbrdf_smp_own_shape(base: u32, bl: SbrdfBlend, b: u32, li: u32, wi: vec3<f32>) -> SbrdfShape {
+    let e = sbrdf_rec(base, bl.rec[b]);
+    let lt = base + sbrdf_u(e + 10u) + 3u * li;
+    let kind = sbrdf_u(lt);
+    let par = base + sbrdf_u(lt + 2u);
+    if (kind == 1u) {
+        return sbrdf_vmf_shape(sbrdf_rec_peak(e), sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]) + 2u + 2u * li));
+    }
+    if (kind == 4u) {
+        return SbrdfShape(1u, vec4<f32>(sbrdf_rec_peak(e), sbrdf_f(par)), 0.0);
+    }
+    if (kind == 5u) {
+        let c = sbrdf_f(par + 2u);
+        let sc = sbrdf_sincos_deg(sbrdf_f(par + 5u));
+        return sbrdf_ggx_shape(sbrdf_ggx_alpha(true, sbrdf_f(par), c),
+            sbrdf_ggx_alpha(true, sbrdf_f(par + 1u), c), vec2<f32>(sc.y, sc.x), wi);
+    }
+    let alpha = sbrdf_ggx_alpha(kind == 3u, sbrdf_f(par), sbrdf_f(par + 1u));
+    return sbrdf_ggx_shape(alpha, alpha, vec2<f32>(1.0, 0.0), wi);
+}
+
+// Lobe li shared by every blended record (bl.n > 1), its shape blended as for evaluation.
+fn sbrdf_smp_shared_shape(base: u32, bl: SbrdfBlend, isotropic: bool, kind: u32, li: u32,
+    wi: vec3<f32>) -> SbrdfShape {
+    if (kind == 1u) {
+        var s = 0.0;
+        var ws = 0.0;
+        for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+            if (b < bl.n) {
+                s = s + bl.w[b] * sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]) + 2u + 2u * li);
+                ws = ws + bl.w[b];
+            }
+        }
+        return sbrdf_vmf_shape(sbrdf_blended_peak(base, bl, isotropic), s / ws);
+    }
+    if (kind == 4u) {
+        return SbrdfShape(1u, vec4<f32>(sbrdf_blended_peak(base, bl, isotropic),
+            sbrdf_shared_geo(base, bl, li, 0u)), 0.0);
+    }
+    if (kind == 5u) {
+        let c = sbrdf_shared_geo(base, bl, li, 2u);
+        let sc = sbrdf_sincos_deg(sbrdf_smp_axis(base, bl, li));
+        return sbrdf_ggx_shape(sbrdf_ggx_alpha(true, sbrdf_shared_geo(base, bl, li, 0u), c),
+            sbrdf_ggx_alpha(true, sbrdf_shared_geo(base, bl, li, 1u), c), vec2<f32>(sc.y, sc.x), wi);
+    }
+    let alpha = sbrdf_ggx_alpha(kind == 3u, sbrdf_shared_geo(base, bl, li, 0u),
+        sbrdf_shared_geo(base, bl, li, 1u));
+    return sbrdf_ggx_shape(alpha, alpha, vec2<f32>(1.0, 0.0), wi);
+}
+
+fn sbrdf_mix_push(mx: ptr<function, SbrdfMix>, s: SbrdfShape, energy: f32) {
+    if (energy > 0.0 && sbrdf_finite(energy) && (*mx).n < SBRDF_MAX_COMPONENTS) {
+        let n = (*mx).n;
+        (*mx).kind[n] = s.kind;
+        (*mx).a[n] = s.a;
+        (*mx).m[n] = s.m;
+        (*mx).w[n] = energy;
+        (*mx).n = n + 1u;
+    }
+}
+
+// The query's mixture (sampling.rs Mixture::new and normalise): component 0 the cosine, then
+// per lobe position one shared component, or one per blended record that has the lobe.
+fn sbrdf_smp_mix(base: u32, q: SbrdfQuery) -> SbrdfMix {
+    let bl = q.bl;
+    var mx: SbrdfMix;
+    mx.n = 1u;
+    mx.kind[0] = 0u;
+    mx.wi = bl.wi;
+    var cosine = 0.0;
+    var mmax = 0u;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < bl.n) {
+            cosine = cosine + bl.w[b] * sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]));
+            mmax = max(mmax, sbrdf_u(sbrdf_rec(base, bl.rec[b]) + 6u));
+        }
+    }
+    mmax = min(mmax, SBRDF_MAX_LOBES);
+    for (var li = 0u; li < SBRDF_MAX_LOBES; li = li + 1u) {
+        if (li >= mmax) {
+            break;
+        }
+        // Shared when every blended record (more than one) has a lobe of one kind at li; one
+        // record alone gives the same component either way.
+        var shared_kind = 0u;
+        if (bl.n > 1u) {
+            shared_kind = 0xffffffffu;
+            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+                if (b < bl.n) {
+                    let e = sbrdf_rec(base, bl.rec[b]);
+                    var kind = 0u;
+                    if (li < sbrdf_u(e + 6u)) {
+                        kind = sbrdf_u(base + sbrdf_u(e + 10u) + 3u * li);
+                    }
+                    if (kind == 0u || (shared_kind != 0xffffffffu && kind != shared_kind)) {
+                        shared_kind = 0u;
+                        break;
+                    }
+                    shared_kind = kind;
+                }
+            }
+        }
+        if (shared_kind != 0u) {
+            var energy = 0.0;
+            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+                if (b < bl.n) {
+                    energy = energy + bl.w[b] * sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]) + 1u + 2u * li);
+                }
+            }
+            sbrdf_mix_push(&mx, sbrdf_smp_shared_shape(base, bl, q.isotropic, shared_kind, li, bl.wi), energy);
+        } else {
+            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+                if (b < bl.n && li < sbrdf_u(sbrdf_rec(base, bl.rec[b]) + 6u)) {
+                    let energy = bl.w[b] * sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]) + 1u + 2u * li);
+                    sbrdf_mix_push(&mx, sbrdf_smp_own_shape(base, bl, b, li, bl.wi), energy);
+                }
+            }
+        }
+    }
+    // Energies to probabilities, the cosine's at least SBRDF_MIN_COSINE_WEIGHT.
+    if (!sbrdf_finite(cosine) || cosine < 0.0) {
+        cosine = 0.0;
+    }
+    var lobes = 0.0;
+    for (var i = 1u; i < SBRDF_MAX_COMPONENTS; i = i + 1u) {
+        if (i < mx.n) {
+            lobes = lobes + mx.w[i];
+        }
+    }
+    if (!(lobes > 0.0 && sbrdf_finite(lobes))) {
+        mx.n = 1u;
+        mx.w[0] = 1.0;
+        return mx;
+    }
+    let p_cos = max(cosine / (cosine + lobes), SBRDF_MIN_COSINE_WEIGHT);
+    mx.w[0] = p_cos;
+    let scale = (1.0 - p_cos) / lobes;
+    for (var i = 1u; i < SBRDF_MAX_COMPONENTS; i = i + 1u) {
+        if (i < mx.n) {
+            mx.w[i] = mx.w[i] * scale;
+        }
+    }
+    return mx;
+}
+
+// Component i's density over the sphere at the unit vector w (records' frame).
+fn sbrdf_smp_density1(mx: SbrdfMix, i: u32, w: vec3<f32>) -> f32 {
+    let kind = mx.kind[i];
+    let a = mx.a[i];
+    if (kind == 0u) {
+        return max(w.z, 0.0) / SBRDF_PI;
+    }
+    if (kind == 1u) {
+        if (dot(w, a.xyz) <= 0.0) {
+            return 0.0;
+        }
+        if (a.w == 0.0) {
+            return 1.0 / (2.0 * SBRDF_PI);
+        }
+        return (a.w + 1.0) / (2.0 * SBRDF_PI) * sbrdf_cos_power(w, a.xyz, a.w);
+    }
+    if (kind == 2u) {
+        // exp(kappa (cos - 1)) with 1 - cos = |w - p|^2 / 2, exact for small angles.
+        let d = w - a.xyz;
+        let x = min(0.5 * dot(d, d), 2.0);
+        return a.w / (2.0 * SBRDF_PI * mx.m[i]) * exp(-a.w * x);
+    }
+    let hs = mx.wi + w;
+    let len = length(hs);
+    if (!(len > 0.0)) {
+        return 0.0;
+    }
+    let h = hs / len;
+    if (h.z <= 0.0 || dot(mx.wi, h) <= 0.0) {
+        return 0.0;
+    }
+    let hu = h.x * a.z + h.y * a.w;
+    let hv = h.y * a.z - h.x * a.w;
+    let t = hu * hu / (a.x * a.x) + hv * hv / (a.y * a.y) + h.z * h.z;
+    return mx.m[i] / (SBRDF_PI * a.x * a.y * t * t);
+}
+
+// The mixture's density over the upper hemisphere at w (records' frame): each lobe component at
+// w and at its mirror image below the horizon.
+fn sbrdf_smp_density(mx: SbrdfMix, w: vec3<f32>) -> f32 {
+    let below = vec3<f32>(w.x, w.y, -w.z);
+    var sum = mx.w[0] * max(w.z, 0.0) / SBRDF_PI;
+    for (var i = 1u; i < SBRDF_MAX_COMPONENTS; i = i + 1u) {
+        if (i >= mx.n) {
+            break;
+        }
+        sum = sum + mx.w[i] * (sbrdf_smp_density1(mx, i, w) + sbrdf_smp_density1(mx, i, below));
+    }
+    return sum;
+}
+
+// The unit vector at angle (cos_a, sin_a) from the unit vector p, at azimuth 2 pi u about it
+// (proposal.rs `around`, with the frame of Duff et al. 2017).
+fn sbrdf_smp_around(p: vec3<f32>, cos_a: f32, sin_a: f32, u: f32) -> vec3<f32> {
+    let sg = select(1.0, -1.0, (bitcast<u32>(p.z) & 0x80000000u) != 0u);
+    let aa = -1.0 / (sg + p.z);
+    let bb = p.x * p.y * aa;
+    let t = vec3<f32>(1.0 + sg * p.x * p.x * aa, sg * bb, -sg * p.x);
+    let b = vec3<f32>(bb, sg + p.y * p.y * aa, -p.y);
+    let sc = sbrdf_sincos_turns(u);
+    return (sin_a * sc.y) * t + (sin_a * sc.x) * b + cos_a * p;
+}
+
+// A direction over the sphere from component i (records' frame) and u in [0, 1)^2; .w = 0 when
+// the draw is degenerate (the CPU's None).
+fn sbrdf_smp_draw(mx: SbrdfMix, i: u32, u: vec2<f32>) -> vec4<f32> {
+    let kind = mx.kind[i];
+    let a = mx.a[i];
+    if (kind == 0u) {
+        let r = sqrt(u.x);
+        let sc = sbrdf_sincos_turns(u.y);
+        return vec4<f32>(r * sc.y, r * sc.x, sqrt(1.0 - u.x), 1.0);
+    }
+    if (kind == 1u) {
+        // cos alpha = u^(1/(n+1)); sin alpha from -expm1(2 ln u / (n + 1)).
+        if (u.x == 0.0) {
+            return vec4<f32>(sbrdf_smp_around(a.xyz, 0.0, 1.0, u.y), 1.0);
+        }
+        let e = sbrdf_ln(u.x) / (a.w + 1.0);
+        let sin_a = sqrt(max(-sbrdf_expm1(2.0 * e), 0.0));
+        return vec4<f32>(sbrdf_smp_around(a.xyz, exp(e), sin_a, u.y), 1.0);
+    }
+    if (kind == 2u) {
+        // 1 - cos alpha = -ln(1 - (1 - u) m) / kappa. The argument 1 - (1 - u) m is
+        // u + (1 - u) exp(-2 kappa), which keeps u's relative precision where it is small.
+        let kappa = a.w;
+        let x = (1.0 - u.x) * mx.m[i];
+        var t = 2.0;
+        if (x < 0.5) {
+            t = -sbrdf_log1p(-x) / kappa;
+        } else {
+            let arg = u.x + (1.0 - u.x) * exp(-2.0 * kappa);
+            if (arg > 0.0) {
+                t = -sbrdf_ln(arg) / kappa;
+            }
+        }
+        t = clamp(t, 0.0, 2.0);
+        return vec4<f32>(sbrdf_smp_around(a.xyz, 1.0 - t, sqrt(t * (2.0 - t)), u.y), 1.0);
+    }
+    // GGX visible normals (Heitz 2018), in the frame of the axes (u, v, z).
+    let wi = mx.wi;
+    let ax = a.x;
+    let ay = a.y;
+    let axis = a.zw;
+    let iu = wi.x * axis.x + wi.y * axis.y;
+    let iv = wi.y * axis.x - wi.x * axis.y;
+    let vv = vec3<f32>(ax * iu, ay * iv, max(wi.z, 0.0));
+    let vl = length(vv);
+    if (!(vl > 0.0)) {
+        return vec4<f32>(0.0);
+    }
+    let vh = vv / vl;
+    let len2 = vh.x * vh.x + vh.y * vh.y;
+    var t1 = vec3<f32>(1.0, 0.0, 0.0);
+    if (len2 > 0.0) {
+        t1 = vec3<f32>(-vh.y, vh.x, 0.0) / sqrt(len2);
+    }
+    let t2 = cross(vh, t1);
+    let r = sqrt(u.x);
+    let sc = sbrdf_sincos_turns(u.y);
+    let p1 = r * sc.y;
+    let sw = 0.5 * (1.0 + vh.z);
+    let p2 = (1.0 - sw) * sqrt(max(1.0 - p1 * p1, 0.0)) + sw * r * sc.x;
+    let pz = sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0));
+    let nh = p1 * t1 + p2 * t2 + pz * vh;
+    let hv = vec3<f32>(ax * nh.x, ay * nh.y, max(nh.z, 0.0));
+    let hlen = length(hv);
+    if (!(hlen > 0.0)) {
+        return vec4<f32>(0.0);
+    }
+    let hl = hv / hlen;
+    let h = vec3<f32>(hl.x * axis.x - hl.y * axis.y, hl.x * axis.y + hl.y * axis.x, hl.z);
+    let d = dot(wi, h);
+    if (d <= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let o = 2.0 * d * h - wi;
+    let ol = length(o);
+    if (!(ol > 0.0)) {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(o / ol, 1.0);
+}
+
+// The density (1/sr) with which sbrdf_sample draws wo for wi (Decoder::pdf).
+fn sbrdf_pdf(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let ui = sbrdf_upper(wi);
+    let uo = sbrdf_upper(wo);
+    if (ui.w == 0.0 || uo.w == 0.0) {
+        return 0.0;
+    }
+    if (sbrdf_u(base + 18u) == 0u) {
+        return uo.z / SBRDF_PI;
+    }
+    let q = sbrdf_smp_query(base, ui.xyz);
+    let mx = sbrdf_smp_mix(base, q);
+    return sbrdf_smp_density(mx, sbrdf_smp_in(q, uo.xyz));
+}
+
+// A direction drawn for wi from u in [0, 1)^2 (Decoder::sample): (wo, pdf), or vec4(0) where
+// the CPU gives None.
+fn sbrdf_sample(base: u32, wi: vec3<f32>, u_in: vec2<f32>) -> vec4<f32> {
+    if (!(sbrdf_finite(u_in.x) && sbrdf_finite(u_in.y))) {
+        return vec4<f32>(0.0);
+    }
+    let u = clamp(u_in, vec2<f32>(0.0), vec2<f32>(SBRDF_ONE_BELOW));
+    let ui = sbrdf_upper(wi);
+    if (ui.w == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    if (sbrdf_u(base + 18u) == 0u) {
+        let r = sqrt(u.x);
+        let sc = sbrdf_sincos_turns(u.y);
+        let z = sqrt(1.0 - u.x);
+        return vec4<f32>(r * sc.y, r * sc.x, z, z / SBRDF_PI);
+    }
+    let q = sbrdf_smp_query(base, ui.xyz);
+    let mx = sbrdf_smp_mix(base, q);
+    // The component: the first whose cumulative weight exceeds u.x (the last otherwise).
+    var i = mx.n - 1u;
+    var lo = 0.0;
+    for (var k = 0u; k < SBRDF_MAX_COMPONENTS; k = k + 1u) {
+        if (k >= mx.n) {
+            break;
+        }
+        if (u.x < lo + mx.w[k]) {
+            i = k;
+            break;
+        }
+        lo = lo + mx.w[k];
+    }
+    let u0 = clamp((u.x - lo) / mx.w[i], 0.0, SBRDF_ONE_BELOW);
+    let d = sbrdf_smp_draw(mx, i, vec2<f32>(u0, u.y));
+    if (d.w == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let wo = sbrdf_smp_out(q, vec3<f32>(d.x, d.y, abs(d.z)));
+    // The density at the direction as returned, computed as sbrdf_pdf computes it.
+    let back = sbrdf_upper(wo);
+    if (back.w == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let pdf = sbrdf_smp_density(mx, sbrdf_smp_in(q, back.xyz));
+    if (!(pdf > 0.0 && sbrdf_finite(pdf))) {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(wo, pdf);
+}

@@ -1392,11 +1392,11 @@ GPU_LAYOUT_MAGIC = 0x4C474253  # the bytes "SBGL"
 
 
 def layout_material(data, base=0):
-    """A material read from a flat device layout (spec/GPU_LAYOUT.md, version 1): `data` is the
+    """A material read from a flat device layout (spec/GPU_LAYOUT.md, version 1 or 2): `data` is the
     layout buffer's bytes (32-bit little-endian words, several materials possibly concatenated),
     `base` the word offset where this material's layout starts. Only the layout's words are
     read; the result evaluates with the same rules as a file (`.eval`). Raises Refused when the
-    words are not a version-1 layout or an offset points outside it."""
+    words are not a version-1 or -2 layout or an offset points outside it."""
     nwords = len(data) // 4
 
     def words(off, count, fmt="I"):
@@ -1407,8 +1407,10 @@ def layout_material(data, base=0):
     head = words(0, 20)
     if head[0] != GPU_LAYOUT_MAGIC:
         raise malformed("layout: bad magic 0x%08x (GPU_LAYOUT.md, Header)" % head[0])
-    if head[1] != 1:
-        raise unsupported("layout: version %d, this reader knows 1" % head[1])
+    # Version 2 adds the sampling section (header word 18, GPU_LAYOUT.md "Sampling section"),
+    # which this reader, an evaluator, ignores; the rest is version 1's.
+    if head[1] not in (1, 2):
+        raise unsupported("layout: version %d, this reader knows 1 and 2" % head[1])
     (total, inc_layout, basis, k, level, w, n, t, p) = head[2:11]
     lmin, lmax = struct.unpack("<2f", struct.pack("<2I", head[11], head[12]))
     off_waves, off_table, off_thetas, off_phis, off_recs = head[13:18]

@@ -348,3 +348,449 @@ fn edge_directions_are_finite_and_zero_like_the_cpu() {
         problems.len()
     );
 }
+
+// ---- importance sampling: sbrdf_pdf and sbrdf_sample against Decoder::pdf and Decoder::sample ----
+
+mod sampling;
+use sampling::{angle, bin_of, chi2, hemisphere, SAMPLING_ENTRY_POINTS};
+
+/// Direction pairs per file for the pdf comparison, and (wi, u) pairs for the sample comparison.
+const PDF_PAIRS: usize = 20_000;
+const SAMPLE_PAIRS: usize = 20_000;
+/// Largest angle (radians) between the device's and the CPU's direction for the same u that
+/// counts as the same draw: the directions are computed in f32 and f64 from the same u, through
+/// logarithms, square roots and the rescaled remainder (u.x − lo)/w of the chosen component,
+/// whose f32 error grows as 1/w for a component of small weight w (measured worst: see the test's
+/// output; f32 alone gives ~1e-7).
+const SAME_DRAW: f64 = 1e-4;
+/// A draw that differs more is accepted only as a component boundary: the CPU, given u.x moved by
+/// at most this many f32 ulps, draws the device's direction (the component's cumulative weight,
+/// f32 on the device and f64 on the CPU, differs by a few ulps of 1).
+const BOUNDARY_ULPS: u32 = 16;
+/// Samples per incidence for the χ² test, and the bins and quadrature grid of
+/// `tests/sampling.rs` (`every_golden_file_samples_by_its_pdf`): 9 × 18 bins in (θ, φ), each
+/// integrated on 60 × 24 cells.
+const CHI2_SAMPLES: usize = 100_000;
+const BINS: (usize, usize) = (9, 18);
+const CELLS_PER_BIN: (usize, usize) = (60, 24);
+
+/// The shader module with the sampling entry points as well.
+fn sampling_module(module: &str) -> String {
+    format!("{module}\n{SAMPLING_ENTRY_POINTS}")
+}
+
+/// A uniform f32 in [0, 1).
+fn uniform(rng: &mut Rng) -> f32 {
+    (rng.f64() as f32).min(1.0 - f32::EPSILON / 2.0)
+}
+
+/// `sbrdf_pdf` against `Decoder::pdf` on random pairs, at the tolerance of the evaluation test:
+/// 1e-5 relative plus 1e-7 of the file's largest pdf M over the pairs. The pdf is a sum of
+/// non-negative terms (no cancellation), so the relative part carries it nearly everywhere; the
+/// floor is for the far tails of narrow lobes, where exp(−κ(1 − cos α)) with κ(1 − cos α) in the
+/// hundreds loses relative accuracy in f32 at values many orders below the peak, and for weights
+/// that are f32 on the device and f64 on the CPU.
+#[test]
+fn pdf_matches_cpu_on_every_covered_sample() {
+    let (mats, _, buf, module, gpu) = on_device();
+    let module = sampling_module(&module);
+    let mut failed = Vec::new();
+    for (mi, mat) in mats.iter().enumerate() {
+        let mut rng = Rng(0x5B2D_F100 + mi as u64);
+        let queries: Vec<Query> = (0..PDF_PAIRS)
+            .map(|_| Query {
+                wi: direction(&mut rng),
+                lambda_nm: 0.0,
+                wo: direction(&mut rng),
+                base: buf.bases[mi],
+            })
+            .collect();
+        let out = gpu.run(&module, "pdf_at", &buf.words, &queries, 1);
+        let cpu: Vec<f32> = queries
+            .iter()
+            .map(|q| mat.decoder.pdf(q.wi, q.wo))
+            .collect();
+        let m = cpu.iter().fold(0.0f64, |a, &v| a.max(v as f64));
+        assert!(m > 0.0, "{}: every CPU pdf is 0", mat.name);
+        let mut worst = Worst::new(ABS_OF_MAX);
+        let mut worst_rel = 0.0f64;
+        for (i, q) in queries.iter().enumerate() {
+            worst.check(out[i], cpu[i] as f64, m, || {
+                format!("wi {:?} wo {:?}", q.wi, q.wo)
+            });
+            if cpu[i] > 0.0 {
+                worst_rel = worst_rel.max((out[i] as f64 - cpu[i] as f64).abs() / cpu[i] as f64);
+            }
+        }
+        println!(
+            "{:32} pdf: {PDF_PAIRS} pairs, M {m:.4e}, worst {:.3} of tolerance, worst relative \
+             difference {worst_rel:.2e}, {} over",
+            mat.name, worst.ratio, worst.failures
+        );
+        if worst.failures > 0 {
+            println!("    worst: {}", worst.example);
+            failed.push(format!("{} ({} over)", mat.name, worst.failures));
+        }
+    }
+    assert!(failed.is_empty(), "pdf outside the tolerance: {failed:?}");
+}
+
+/// `sbrdf_sample(u)` against `Decoder::sample(u)` for the same f32 u: the same direction (within
+/// `SAME_DRAW`, or within the angle by which the CPU's own draw moves when u.x moves by one f32
+/// ulp, where a draw is that sensitive to u), except at component boundaries, each of which must be shown to be one (the CPU
+/// draws the device's direction from u.x moved by at most `BOUNDARY_ULPS` ulps); the device's pdf
+/// equals `Decoder::pdf` at the device's direction (the pdf test's tolerance); where the CPU gives
+/// None the device gives vec4(0).
+#[test]
+fn sample_matches_cpu_on_every_covered_sample() {
+    let (mats, _, buf, module, gpu) = on_device();
+    let module = sampling_module(&module);
+    let mut failed = Vec::new();
+    for (mi, mat) in mats.iter().enumerate() {
+        let mut rng = Rng(0x5B2D_F200 + mi as u64);
+        let queries: Vec<Query> = (0..SAMPLE_PAIRS)
+            .map(|_| Query {
+                wi: direction(&mut rng),
+                lambda_nm: 0.0,
+                wo: [uniform(&mut rng), uniform(&mut rng), 0.0],
+                base: buf.bases[mi],
+            })
+            .collect();
+        let out = gpu.run(&module, "sample_dir", &buf.words, &queries, 4);
+        let (mut same, mut boundary, mut none_both) = (0usize, 0usize, 0usize);
+        let (mut within_ulp, mut max_within_ulp) = (0usize, 0.0f64);
+        let mut max_angle = 0.0f64;
+        let mut angles = Vec::new();
+        let mut problems = Vec::new();
+        let mut pdf_pairs = Vec::new();
+        for (i, q) in queries.iter().enumerate() {
+            let g = &out[4 * i..4 * i + 4];
+            let gwo = [g[0], g[1], g[2]];
+            let u = [q.wo[0], q.wo[1]];
+            match mat.decoder.sample(q.wi, u) {
+                None => {
+                    if g.iter().all(|&v| v == 0.0) {
+                        none_both += 1;
+                    } else {
+                        problems.push(format!("wi {:?} u {u:?}: CPU None, device {g:?}", q.wi));
+                    }
+                }
+                Some(s) => {
+                    if !(g[3] > 0.0 && g.iter().all(|v| v.is_finite())) {
+                        problems.push(format!("wi {:?} u {u:?}: CPU {s:?}, device {g:?}", q.wi));
+                        continue;
+                    }
+                    let a = angle(gwo, s.wo);
+                    angles.push(a);
+                    let bits = u[0].to_bits();
+                    // How far the CPU's own draw moves when u.x moves by one f32 ulp.
+                    let step = |k: i32| {
+                        let v = f32::from_bits(bits.wrapping_add_signed(k));
+                        mat.decoder
+                            .sample(q.wi, [v, u[1]])
+                            .map_or(0.0, |t| angle(s.wo, t.wo))
+                    };
+                    if a <= SAME_DRAW {
+                        same += 1;
+                        max_angle = max_angle.max(a);
+                    } else if a <= step(-1).max(step(1)) {
+                        // Closer to the CPU's draw than the CPU's draws at the neighbouring f32
+                        // u.x are: a draw this sensitive to u (a small rescaled remainder of a
+                        // component of small weight) agrees to the resolution of u itself.
+                        within_ulp += 1;
+                        max_within_ulp = max_within_ulp.max(a);
+                    } else {
+                        // A boundary: some u.x within BOUNDARY_ULPS ulps draws it on the CPU.
+                        let near = (1..=BOUNDARY_ULPS).any(|k| {
+                            [bits.wrapping_add(k), bits.wrapping_sub(k)]
+                                .into_iter()
+                                .map(f32::from_bits)
+                                .filter(|v| (0.0..1.0).contains(v))
+                                .filter_map(|v| mat.decoder.sample(q.wi, [v, u[1]]))
+                                .any(|t| angle(gwo, t.wo) <= SAME_DRAW)
+                        });
+                        if near {
+                            boundary += 1;
+                        } else {
+                            problems.push(format!(
+                                "wi {:?} u {u:?}: device {gwo:?} pdf {}, CPU {:?} pdf {}: {a:.3e} \
+                                 rad apart (the CPU's move for u.x −1, +1 ulp: {:.3e}, {:.3e} rad)",
+                                q.wi,
+                                g[3],
+                                s.wo,
+                                s.pdf,
+                                step(-1),
+                                step(1)
+                            ));
+                        }
+                    }
+                    pdf_pairs.push((g[3], mat.decoder.pdf(q.wi, gwo), q.wi, gwo));
+                }
+            }
+        }
+        let m = pdf_pairs.iter().fold(0.0f64, |a, p| a.max(p.1 as f64));
+        let mut worst = Worst::new(ABS_OF_MAX);
+        for &(g, c, wi, wo) in &pdf_pairs {
+            worst.check(g, c as f64, m, || format!("wi {wi:?} wo {wo:?}"));
+        }
+        angles.sort_by(f64::total_cmp);
+        let quantile = |f: f64| {
+            angles
+                .get(((angles.len() as f64 * f) as usize).min(angles.len().saturating_sub(1)))
+                .copied()
+                .unwrap_or(0.0)
+        };
+        println!(
+            "{:32} sample: {SAMPLE_PAIRS} draws: {same} same direction (angle median {:.1e}, \
+             99.9% {:.1e}, max {max_angle:.1e} rad), {within_ulp} within the CPU's move for \
+             one ulp of u.x (largest {max_within_ulp:.1e} rad), {boundary} component boundaries, \
+             {none_both} None on both, {} problems; pdf worst {:.3} of tolerance, {} over",
+            mat.name,
+            quantile(0.5),
+            quantile(0.999),
+            problems.len(),
+            worst.ratio,
+            worst.failures
+        );
+        for p in problems.iter().take(5) {
+            println!("    {p}");
+        }
+        if worst.failures > 0 {
+            println!("    worst pdf: {}", worst.example);
+        }
+        if !problems.is_empty() || worst.failures > 0 {
+            failed.push(format!(
+                "{} ({} direction problems, {} pdf over)",
+                mat.name,
+                problems.len(),
+                worst.failures
+            ));
+        }
+        // A boundary is where u.x is within a few ulps of a cumulative weight: rare.
+        assert!(
+            boundary * 1000 <= SAMPLE_PAIRS,
+            "{}: {boundary} boundary cases of {SAMPLE_PAIRS}",
+            mat.name
+        );
+    }
+    assert!(
+        failed.is_empty(),
+        "sampling differs from the CPU: {failed:?}"
+    );
+}
+
+/// The device's samples follow the device's pdf, and the device's pdf integrates to 1, on every
+/// covered file at the two incidences of `tests/sampling.rs` (the lowest stored θi at φ = 0, and
+/// 1° past the middle of the stored range at φ = 33°): ∫ pdf dω by the midpoint rule on 540 × 432
+/// cells within 0.01 of 1 (the CPU test's tolerance), and Pearson's χ² of `CHI2_SAMPLES` device
+/// samples in 9 × 18 bins against the device pdf's integral over each bin, p > 0.001 (the CPU
+/// test's threshold).
+#[test]
+fn device_samples_follow_the_device_pdf() {
+    let (mats, _, buf, module, gpu) = on_device();
+    let module = sampling_module(&module);
+    let (bt, bp) = BINS;
+    let (ct, cp) = CELLS_PER_BIN;
+    let cells = hemisphere(bt * ct, bp * cp);
+    let mut failed = Vec::new();
+    for (mi, mat) in mats.iter().enumerate() {
+        let thetas: Vec<f64> = mat
+            .decoder
+            .material()
+            .records
+            .iter()
+            .map(|r| r.theta_i as f64)
+            .collect();
+        let (lo, hi) = thetas
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &t| (a.min(t), b.max(t)));
+        for (k, inc) in [(lo, 0.0), (0.5 * (lo + hi) + 1.0, 33.0)]
+            .iter()
+            .enumerate()
+        {
+            let (t, p) = (inc.0.to_radians(), f64::to_radians(inc.1));
+            let wi = [
+                (t.sin() * p.cos()) as f32,
+                (t.sin() * p.sin()) as f32,
+                t.cos() as f32,
+            ];
+            let queries: Vec<Query> = cells
+                .iter()
+                .map(|&(_, _, wo, _)| Query {
+                    wi,
+                    lambda_nm: 0.0,
+                    wo,
+                    base: buf.bases[mi],
+                })
+                .collect();
+            let pdf = gpu.run(&module, "pdf_at", &buf.words, &queries, 1);
+            let mut expected = vec![0.0; bt * bp];
+            let mut total = 0.0;
+            for (&(i, j, _, area), &v) in cells.iter().zip(&pdf) {
+                let pa = v as f64 * area;
+                total += pa;
+                expected[(i / ct) * bp + j / cp] += pa * CHI2_SAMPLES as f64;
+            }
+            let mut rng = Rng(0x5B2D_F300 + 2 * mi as u64 + k as u64);
+            let queries: Vec<Query> = (0..CHI2_SAMPLES)
+                .map(|_| Query {
+                    wi,
+                    lambda_nm: 0.0,
+                    wo: [uniform(&mut rng), uniform(&mut rng), 0.0],
+                    base: buf.bases[mi],
+                })
+                .collect();
+            let s = gpu.run(&module, "sample_dir", &buf.words, &queries, 4);
+            let mut observed = vec![0u64; bt * bp];
+            let mut invalid = 0;
+            for d in s.chunks_exact(4) {
+                if d[3] > 0.0 && d[3].is_finite() && d[2] >= 0.0 {
+                    observed[bin_of([d[0], d[1], d[2]], bt, bp)] += 1;
+                } else {
+                    invalid += 1;
+                }
+            }
+            let chi = chi2(&observed, &expected);
+            println!(
+                "{:32} θi {:.2}° φi {:.0}°: ∫pdf dω = {total:.5}; χ² (stat, dof, p) {chi:?}; {invalid} \
+                 invalid samples",
+                mat.name, inc.0, inc.1
+            );
+            let ok = (total - 1.0).abs() < 0.01
+                && invalid == 0
+                && chi.is_some_and(|(_, _, p)| p > 0.001);
+            if !ok {
+                failed.push(format!("{} at {inc:?}", mat.name));
+            }
+        }
+    }
+    assert!(
+        failed.is_empty(),
+        "device sampling not by its pdf: {failed:?}"
+    );
+}
+
+/// `sbrdf_pdf` and `sbrdf_sample` at and past the edge, on every covered file: grazing and
+/// below-horizon directions, exactly horizontal ones, the zero vector and non-finite components,
+/// with u at 0, 1 − ulp, 1 and non-finite. No output may be non-finite; where the CPU gives 0
+/// (pdf) or None (sample) by its rule, the device gives exactly 0 (all four words for a sample);
+/// a device sample that is not 0 is a unit vector on or above the horizon with a positive pdf.
+#[test]
+fn sampling_edges_are_finite_and_zero_like_the_cpu() {
+    let (mats, _, buf, module, gpu) = on_device();
+    let module = sampling_module(&module);
+    let up = [0.3f32, 0.2, 0.932_737_9];
+    let dir = |theta_deg: f64, phi_deg: f64| {
+        let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+        [
+            (t.sin() * p.cos()) as f32,
+            (t.sin() * p.sin()) as f32,
+            t.cos() as f32,
+        ]
+    };
+    let mut edge: Vec<[f32; 3]> = vec![up, [0.0, 0.0, 1.0]];
+    for phi in [0.0, 37.0, 90.0, 200.0] {
+        for delta in [1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6] {
+            edge.push(dir(90.0 - delta, phi));
+            edge.push(dir(90.0 + delta, phi));
+        }
+        let (s, c) = (phi as f32).to_radians().sin_cos();
+        edge.push([c, s, 0.0]);
+        edge.push([c, 0.0, -0.0]);
+    }
+    edge.push([0.0, 0.0, -1.0]);
+    edge.push([0.0, 0.0, 0.0]);
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        edge.push([bad, 0.0, 1.0]);
+        edge.push([0.0, 0.0, bad]);
+    }
+    let below_one = 1.0 - f32::EPSILON / 2.0;
+    let us = [
+        0.0f32,
+        below_one,
+        1.0,
+        0.5,
+        0.999,
+        1e-7,
+        f32::NAN,
+        f32::INFINITY,
+    ];
+    let mut problems = Vec::new();
+    let (mut n_pdf, mut n_sample) = (0usize, 0usize);
+    for (mi, mat) in mats.iter().enumerate() {
+        let base = buf.bases[mi];
+        let mut pq = Vec::new();
+        for &a in &edge {
+            for &b in &edge {
+                pq.push(Query {
+                    wi: a,
+                    lambda_nm: 0.0,
+                    wo: b,
+                    base,
+                });
+            }
+        }
+        let pdf = gpu.run(&module, "pdf_at", &buf.words, &pq, 1);
+        for (q, &g) in pq.iter().zip(&pdf) {
+            let c = mat.decoder.pdf(q.wi, q.wo);
+            let bad = if c == 0.0 {
+                g != 0.0
+            } else {
+                !(g.is_finite() && g >= 0.0)
+            };
+            if bad {
+                problems.push(format!(
+                    "{}: pdf wi {:?} wo {:?}: device {g}, CPU {c}",
+                    mat.name, q.wi, q.wo
+                ));
+            }
+        }
+        n_pdf += pq.len();
+        let mut sq = Vec::new();
+        for &wi in &edge {
+            for &u0 in &us {
+                for &u1 in &us {
+                    sq.push(Query {
+                        wi,
+                        lambda_nm: 0.0,
+                        wo: [u0, u1, 0.0],
+                        base,
+                    });
+                }
+            }
+        }
+        let s = gpu.run(&module, "sample_dir", &buf.words, &sq, 4);
+        for (q, g) in sq.iter().zip(s.chunks_exact(4)) {
+            let u = [q.wo[0], q.wo[1]];
+            let cpu = mat.decoder.sample(q.wi, u);
+            let zero = g.iter().all(|&v| v == 0.0);
+            let bad = match cpu {
+                None => !zero,
+                Some(_) => {
+                    let len = (g[0] as f64).hypot(g[1] as f64).hypot(g[2] as f64);
+                    !zero
+                        && !(g.iter().all(|v| v.is_finite())
+                            && g[3] > 0.0
+                            && g[2] >= 0.0
+                            && (len - 1.0).abs() < 1e-5)
+                }
+            };
+            if bad {
+                problems.push(format!(
+                    "{}: sample wi {:?} u {u:?}: device {g:?}, CPU {cpu:?}",
+                    mat.name, q.wi
+                ));
+            }
+        }
+        n_sample += sq.len();
+    }
+    println!(
+        "{n_pdf} edge pdf queries and {n_sample} edge samples over {} files, {} problems",
+        mats.len(),
+        problems.len()
+    );
+    for p in problems.iter().take(20) {
+        println!("    {p}");
+    }
+    assert!(problems.is_empty(), "{} edge queries wrong", problems.len());
+}

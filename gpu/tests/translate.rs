@@ -5,12 +5,14 @@
 //! device: it catches what a backend cannot express before anyone renders with it.
 
 mod common;
+mod sampling;
 use common::*;
 use naga::back::{glsl, hlsl, msl, spv};
 use naga::valid::{Capabilities, ValidationFlags, Validator};
+use sampling::{SAMPLING_ENTRIES, SAMPLING_ENTRY_POINTS};
 
 /// Parses, validates and writes `src` with every backend; panics naming the step that failed.
-fn translate_everywhere(src: &str, what: &str) {
+fn translate_everywhere(src: &str, what: &str, expect: &[&str]) {
     let module = naga::front::wgsl::parse_str(src)
         .unwrap_or_else(|e| panic!("{what}: WGSL parse error:\n{}", e.emit_to_string(src)));
     // Default capabilities: what every backend supports, not what one device adds.
@@ -18,11 +20,7 @@ fn translate_everywhere(src: &str, what: &str) {
         .validate(&module)
         .unwrap_or_else(|e| panic!("{what}: validation error:\n{}", e.emit_to_string(src)));
     let entries: Vec<String> = module.entry_points.iter().map(|e| e.name.clone()).collect();
-    assert_eq!(
-        entries,
-        ["eval_spectral", "eval_rgb"],
-        "{what}: entry points"
-    );
+    assert_eq!(entries, expect, "{what}: entry points");
 
     let spirv = spv::write_vec(&module, &info, &spv::Options::default(), None)
         .unwrap_or_else(|e| panic!("{what}: SPIR-V: {e}"));
@@ -67,10 +65,7 @@ fn translate_everywhere(src: &str, what: &str) {
 
     // Each output must carry both kernels (names may be mangled, so look for the calls' callee).
     for (lang, text) in [("HLSL", &hlsl_out), ("MSL", &msl_out)] {
-        assert!(
-            text.contains("eval_spectral") && text.contains("eval_rgb"),
-            "{what}: {lang}"
-        );
+        assert!(expect.iter().all(|e| text.contains(e)), "{what}: {lang}");
     }
     for (entry, text) in entries.iter().zip(&glsl_out) {
         assert!(
@@ -79,24 +74,41 @@ fn translate_everywhere(src: &str, what: &str) {
         );
     }
     println!(
-        "{what}: SPIR-V {} words, HLSL {} bytes, MSL {} bytes, GLSL {} + {} bytes",
+        "{what}: SPIR-V {} words, HLSL {} bytes, MSL {} bytes, GLSL {:?} bytes",
         spirv.len(),
         hlsl_out.len(),
         msl_out.len(),
-        glsl_out[0].len(),
-        glsl_out[1].len()
+        glsl_out.iter().map(String::len).collect::<Vec<_>>()
     );
 }
 
 #[test]
 fn shader_translates_to_every_backend() {
     let path = shader_path();
-    translate_everywhere(&full_module(&shader_source()), &path.display().to_string());
+    translate_everywhere(
+        &full_module(&shader_source()),
+        &path.display().to_string(),
+        &["eval_spectral", "eval_rgb"],
+    );
+}
+
+/// The same with the entry points of the sampling functions (`sbrdf_pdf`, `sbrdf_sample`) too.
+#[test]
+fn sampling_functions_translate_to_every_backend() {
+    let path = shader_path();
+    let src = format!("{}\n{SAMPLING_ENTRY_POINTS}", full_module(&shader_source()));
+    let mut expect = vec!["eval_spectral", "eval_rgb"];
+    expect.extend(SAMPLING_ENTRIES);
+    translate_everywhere(&src, &path.display().to_string(), &expect);
 }
 
 /// The same for the stand-in shader of `plumbing.rs`: the prelude and entry points themselves
 /// are valid and portable, so a failure of the test above is the shader's.
 #[test]
 fn prelude_and_entry_points_translate() {
-    translate_everywhere(&full_module(include_str!("probe.wgsl")), "tests/probe.wgsl");
+    translate_everywhere(
+        &full_module(include_str!("probe.wgsl")),
+        "tests/probe.wgsl",
+        &["eval_spectral", "eval_rgb"],
+    );
 }
