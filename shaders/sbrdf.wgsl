@@ -19,6 +19,10 @@
 //       the spectrum at 380..780 nm every 5 nm (each value clamped at 0), weighted by
 //       D65 times the CIE 1931 2-degree observer, normalised so that Y of a constant 1 is 1,
 //       then the IEC 61966-2-1 XYZ -> linear sRGB matrix.
+//   sbrdf_pdf(base, wi, wo) -> f32
+//   sbrdf_sample(base, wi, u) -> vec4<f32>
+//       importance sampling: the density (1/sr) and a drawn direction (xyz) with its density
+//       (w), as `Decoder::pdf` and `Decoder::sample` (see "importance sampling" below).
 //
 // CONVENTIONS (those of `Decoder::eval`, spec/EVALUATION.md). wi points toward the light and
 // wo toward the viewer, both in the local frame with z the surface normal. They need not be of
@@ -28,9 +32,9 @@
 // end (the spectral basis clamps it). The layout is assumed valid (made by `gpu_layout()`):
 // nothing here bounds-checks offsets.
 //
-// NOT COVERED. Importance sampling and its pdf (layout version 1 does not hold the mixture
-// weights); files that `gpu_layout()` refuses (factor model FACT, warped tables WARP). No
-// check of the header's magic or version is made per query: the host checks them once.
+// NOT COVERED. Files that `gpu_layout()` refuses (factor model FACT, warped tables WARP). A
+// layout without a sampling section (version 1) samples the cosine. No check of the header's
+// magic or version is made per query: the host checks them once.
 //
 // PRECISION. Everything is f32; the CPU decoder computes in f64. The places where f32 would
 // lose more than a few units in the last place are written specially; each says why below.
