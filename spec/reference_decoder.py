@@ -1466,6 +1466,32 @@ def layout_material(data, base=0):
     return m
 
 
+def layout_sampling_weights(data, base=0):
+    """The sampling section of a flat device layout (spec/GPU_LAYOUT.md, "Sampling section",
+    version 2): per record (E_bg, [(E_l, ln b_l) per lobe]), or None when the layout has none
+    (header word 18 = 0). The evaluator (`layout_material`) does not use it; this reads it so
+    that a test can check it against this decoder's own integrals."""
+    nwords = len(data) // 4
+
+    def words(off, count, fmt="I"):
+        if off < 0 or count < 0 or base + off + count > nwords:
+            raise malformed("layout: %d words at offset %d run past the buffer" % (count, off))
+        return list(struct.unpack_from("<%d%s" % (count, fmt), data, 4 * (base + off)))
+
+    head = words(0, 20)
+    if head[0] != GPU_LAYOUT_MAGIC or head[1] not in (1, 2):
+        raise malformed("layout: not a version 1 or 2 layout")
+    s, n, off_recs = head[18], head[8], head[17]
+    if s == 0:
+        return None
+    out = []
+    for r, at in enumerate(words(s, n)):
+        lobes = words(off_recs + 12 * r, 12)[6]
+        v = words(at, 1 + 2 * lobes, "f")
+        out.append((v[0], [(v[1 + 2 * l], v[2 + 2 * l]) for l in range(lobes)]))
+    return out
+
+
 def fmt(x):
     """A float as Rust's `{}` prints an f64: shortest round-trip digits, no exponent."""
     if math.isnan(x):

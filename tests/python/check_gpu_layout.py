@@ -11,12 +11,17 @@ evaluated on the stored incidences and pseudo-random (incident, outgoing) pairs 
 wavelengths plus wavelengths between them, and must agree with `sbrdf eval` within
 1e-5 relative + 1e-7 times the largest value seen for the file (the f32 layout's precision:
 λmin and λmax are rounded to f32). The layouts of all files are also concatenated into one
-buffer and each read back at its base word, which must give the same values.
+buffer and each read back at its base word, which must give the same values. The sampling
+section (GPU_LAYOUT.md, "Sampling section") is read with `layout_sampling_weights`: each
+record's background energy must equal the reference decoder's own integral of its SH background
+(spectrum-averaged) times cos θ, and each angle Gaussian's ln b the amplitude-weighted mean of
+its widths' logarithms; the lobe energies (a 4 × 4 stratified estimate) must be finite and ≥ 0.
 
 Standard library only. Exit status 0 when every file passes.
 """
 
 import argparse
+import math
 import random
 import subprocess
 import sys
@@ -50,6 +55,82 @@ def pairs_for(m, rng):
         inc = (rng.uniform(0, 90), 0.0 if m.isotropic else rng.uniform(0, 360))
         pairs.append((inc, (rng.uniform(0, 90), rng.uniform(0, 360))))
     return pairs
+
+
+def gauss_legendre01(n):
+    """Nodes and weights of n-point Gauss-Legendre quadrature on [0, 1] (Newton on P_n)."""
+    nodes, weights = [], []
+    for i in range(n):
+        x = math.cos(math.pi * (i + 0.75) / (n + 0.5))
+        for _ in range(100):
+            p0, p1 = 1.0, x
+            for k in range(2, n + 1):
+                p0, p1 = p1, ((2 * k - 1) * x * p1 - (k - 1) * p0) / k
+            dp = n * (x * p1 - p0) / (x * x - 1.0)
+            dx = p1 / dp
+            x -= dx
+            if abs(dx) < 1e-16:
+                break
+        nodes.append(0.5 * (x + 1.0))
+        weights.append(1.0 / ((1.0 - x * x) * dp * dp))
+    return nodes, weights
+
+
+def cosine_sh_integrals(level):
+    """I_j = ∫ Y_j(ω) cos θ dω over the upper hemisphere for every SH function up to `level`, by
+    Gauss-Legendre in cos θ (24 nodes: exact for the m = 0 functions, polynomials of degree
+    ≤ 21 times cos θ) and 64 equal steps in φ (exact for |m| < 64, whose integrals are 0)."""
+    mus, ws = gauss_legendre01(24)
+    nphi = 64
+    total = [0.0] * ((level + 1) ** 2)
+    for mu, w in zip(mus, ws):
+        st = math.sqrt(max(0.0, 1.0 - mu * mu))
+        for j in range(nphi):
+            phi = 2.0 * math.pi * (j + 0.5) / nphi
+            y = rd.sh_eval(level, (st * math.cos(phi), st * math.sin(phi), mu))
+            for i, v in enumerate(y):
+                total[i] += v * mu * w * (2.0 * math.pi / nphi)
+    return total
+
+
+def check_sampling_section(name, data, m):
+    """The sampling section (GPU_LAYOUT.md, "Sampling section") read by the reference decoder:
+    present, finite, lobe energies ≥ 0, ln b 0 except for angle Gaussians, where it must be the
+    amplitude-weighted mean of the widths' logarithms; and each background energy equal to this
+    decoder's own integral of its SH background, spectrum-averaged, times cos θ. Returns a
+    list of problems."""
+    weights = rd.layout_sampling_weights(data)
+    if weights is None:
+        return ["no sampling section"]
+    problems = []
+    bmean = [0.0] * m.k
+    for lam in m.wavelengths:
+        for i, v in enumerate(m.basis_at(lam, m.k)):
+            bmean[i] += v / len(m.wavelengths)
+    integrals = cosine_sh_integrals(m.sh_level)
+    for r, (rec, (e_bg, lobes)) in enumerate(zip(m.records, weights)):
+        terms = [bmean[k] * c * integrals[j]
+                 for k in range(rec.terms) for j, c in enumerate(rec.sh[k])]
+        want, scale = math.fsum(terms), math.fsum(abs(t) for t in terms)
+        if not abs(e_bg - want) <= 1e-6 * scale + 1e-7 * abs(want):
+            problems.append("record %d: background energy %r, integral %r" % (r, e_bg, want))
+        if len(lobes) != len(rec.lobes):
+            problems.append("record %d: %d lobe weights for %d lobes" % (r, len(lobes), len(rec.lobes)))
+            continue
+        for li, ((energy, ln_b), (kind, rows, params)) in enumerate(zip(lobes, rec.lobes)):
+            if not (math.isfinite(energy) and energy >= 0.0):
+                problems.append("record %d lobe %d: energy %r" % (r, li, energy))
+            if kind != 1:
+                if ln_b != 0.0:
+                    problems.append("record %d lobe %d (kind %d): ln b %r" % (r, li, kind, ln_b))
+                continue
+            shares = [abs(a * bmean[k]) for k, a in enumerate(rows[0])]
+            den = math.fsum(shares)
+            want_b = (math.fsum(s * math.log(b) for s, b in zip(shares, params)) / den
+                      if den > 0 else math.log(params[0]))
+            if not abs(ln_b - want_b) <= 1e-6 * max(1.0, abs(want_b)):
+                problems.append("record %d lobe %d: ln b %r, want %r" % (r, li, ln_b, want_b))
+    return problems
 
 
 def main(argv=None):
@@ -105,6 +186,12 @@ def main(argv=None):
                             print("     %s: wi %r wo %r λ %r: eval %r, layout %r"
                                   % (name, inc, outg, lam, a, b))
                         bad += 1
+            sampling = check_sampling_section(name, data, m)
+            for problem in sampling[:3]:
+                print("     %s: sampling section: %s" % (name, problem))
+            if sampling:
+                print("FAIL %s: sampling section: %d problems" % (name, len(sampling)))
+                failures += 1
             if bad:
                 print("FAIL %s: %d values disagree" % (name, bad))
                 failures += 1
