@@ -1,5 +1,5 @@
 // sbrdf.wgsl: evaluation of an sbrdf material from its flat device layout
-// (spec/GPU_LAYOUT.md, layout version 1) in WGSL, all in f32.
+// (spec/GPU_LAYOUT.md, layout versions 1 and 2) in WGSL, all in f32.
 //
 // HOW TO USE. Paste (or concatenate) this text after the host shader's own declarations. It
 // declares NO binding itself: it reads the layout words from a storage array named

@@ -1,13 +1,17 @@
 //! The WGSL evaluation module: `shaders/sbrdf.wgsl` as a string, to paste into a host shader.
 //!
 //! [`WGSL`] evaluates a material from its flat device layout ([`crate::Decoder::gpu_layout`],
-//! `spec/GPU_LAYOUT.md`, version 1) in f32 on a GPU:
+//! `spec/GPU_LAYOUT.md`, version 2) in f32 on a GPU:
 //!
 //! * `sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32`: ρ in 1/sr,
 //!   as [`crate::Decoder::eval`] computes it;
 //! * `sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32>`: linear sRGB under
 //!   D65, as [`crate::Decoder::eval_linear_srgb`] with
-//!   [`Illuminant::D65`](crate::decode::color::Illuminant::D65).
+//!   [`Illuminant::D65`](crate::decode::color::Illuminant::D65);
+//! * `sbrdf_pdf(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32` and `sbrdf_sample(base: u32, wi:
+//!   vec3<f32>, u: vec2<f32>) -> vec4<f32>` (direction in xyz, pdf in w): importance sampling as
+//!   [`crate::Decoder::pdf`] and [`crate::Decoder::sample`], from the layout's sampling section
+//!   (version 2; a layout without one samples the cosine).
 //!
 //! The text declares no binding: the host declares the storage array it reads, under the name
 //! `sbrdf_words`, before the module's text, and fills it with the layout's words (several
@@ -19,12 +23,12 @@
 //!     sbrdf::gpu::WGSL
 //! );
 //! assert!(host.contains("fn sbrdf_eval("));
+//! assert!(host.contains("fn sbrdf_sample("));
 //! ```
 //!
 //! Directions are vectors in the local frame with z the normal, `wi` toward the light and `wo`
 //! toward the viewer, as for [`crate::Decoder::eval`]; a zero, non-finite or below-horizon
-//! direction, or a non-finite wavelength, gives 0. Importance sampling is not covered (layout
-//! version 1 does not hold its data). The module's header comment says the rest, and
+//! direction, or a non-finite wavelength, gives 0. The module's header comment says the rest, and
 //! `docs/renderers.md` ("On a GPU") how to use it. This module needs no feature and no
 //! dependency: the shader is text, compiled by whatever GPU API the renderer uses.
 
