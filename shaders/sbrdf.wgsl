@@ -1570,8 +1570,23 @@ fn sbrdf_smp_draw(mx: SbrdfMix, i: u32, u: vec2<f32>) -> vec4<f32> {
     let sc = sbrdf_sincos_turns(u.y);
     let p1 = r * sc.y;
     let sw = 0.5 * (1.0 + vh.z);
-    let p2 = (1.0 - sw) * sqrt(max(1.0 - p1 * p1, 0.0)) + sw * r * sc.x;
-    let pz = sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0));
+    // s = sqrt(1 - p1^2) and pz = sqrt(1 - p1^2 - p2^2) without their cancellations (near the
+    // disk's edge, where the normal is nearly perpendicular to vh, 1 - p1^2 - p2^2 in f32 would
+    // lose all but a few bits): 1 - p1^2 = (1 - u.x) + u.x sin^2; s -+ r sin from
+    // (s - r sin)(s + r sin) = 1 - u.x, whichever side has no cancellation; 1 - sw = len2 / (2 (1 +
+    // vh.z)); and pz^2 = (s - p2)(s + p2) = sw (s - r sin) ((2 - 2 sw) s + sw (s + r sin)).
+    let one_u = 1.0 - u.x;
+    let s = sqrt(one_u + u.x * sc.x * sc.x);
+    var dm = s - r * sc.x; // s - r sin
+    var dp = s + r * sc.x; // s + r sin
+    if (sc.x > 0.0) {
+        dm = one_u / dp;
+    } else if (dm > 0.0) {
+        dp = one_u / dm;
+    }
+    let two_minus = len2 / (1.0 + vh.z); // 2 - 2 sw = 1 - vh.z
+    let p2 = 0.5 * two_minus * s + sw * r * sc.x;
+    let pz = sqrt(max(sw * dm * (two_minus * s + sw * dp), 0.0));
     let nh = p1 * t1 + p2 * t2 + pz * vh;
     let hv = vec3<f32>(ax * nh.x, ay * nh.y, max(nh.z, 0.0));
     let hlen = length(hv);

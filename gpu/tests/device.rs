@@ -459,6 +459,7 @@ fn sample_matches_cpu_on_every_covered_sample() {
         let out = gpu.run(&module, "sample_dir", &buf.words, &queries, 4);
         let (mut same, mut boundary, mut none_both) = (0usize, 0usize, 0usize);
         let (mut within_ulp, mut max_within_ulp) = (0usize, 0.0f64);
+        let (mut over_1e5, mut over_1e5_ulp) = (0usize, 0usize);
         let mut max_angle = 0.0f64;
         let mut angles = Vec::new();
         let mut problems = Vec::new();
@@ -490,6 +491,13 @@ fn sample_matches_cpu_on_every_covered_sample() {
                             .sample(q.wi, [v, u[1]])
                             .map_or(0.0, |t| angle(s.wo, t.wo))
                     };
+                    if a > 1e-5 {
+                        // How many of the larger differences u's own resolution explains.
+                        over_1e5 += 1;
+                        if a <= step(-1).max(step(1)) {
+                            over_1e5_ulp += 1;
+                        }
+                    }
                     if a <= SAME_DRAW {
                         same += 1;
                         max_angle = max_angle.max(a);
@@ -543,7 +551,8 @@ fn sample_matches_cpu_on_every_covered_sample() {
         println!(
             "{:32} sample: {SAMPLE_PAIRS} draws: {same} same direction (angle median {:.1e}, \
              99.9% {:.1e}, max {max_angle:.1e} rad), {within_ulp} within the CPU's move for \
-             one ulp of u.x (largest {max_within_ulp:.1e} rad), {boundary} component boundaries, \
+             one ulp of u.x (largest {max_within_ulp:.1e} rad); {over_1e5} over 1e-5 rad apart, \
+             {over_1e5_ulp} of them within the CPU's move for one ulp; {boundary} component boundaries, \
              {none_both} None on both, {} problems; pdf worst {:.3} of tolerance, {} over",
             mat.name,
             quantile(0.5),
