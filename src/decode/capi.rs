@@ -244,7 +244,7 @@ pub unsafe extern "C" fn sbrdf_close(b: *mut sbrdf_t) {
 /// caller's buffer. `*word_count` always receives the number of 32-bit words the layout needs
 /// (0 on error); the words are written only when `words` is not NULL and `capacity` (in words)
 /// holds them all. Ask the size first with `words` = NULL; a non-NULL buffer that is too small
-/// is `SBRDF_ERR_ARGUMENT` with nothing written. A file not covered by layout version 1 (factor
+/// is `SBRDF_ERR_ARGUMENT` with nothing written. A file not covered by layout versions 1 and 2 (factor
 /// model, warped tables) is `SBRDF_ERR_ARGUMENT`. Builds the layout on every call.
 #[no_mangle]
 pub unsafe extern "C" fn sbrdf_gpu_layout(

@@ -161,7 +161,7 @@ impl Decoder {
     /// The flat device layout of this material (`spec/GPU_LAYOUT.md`): 32-bit little-endian
     /// words (f32 and u32) with a header of word offsets, for a shader to evaluate, sample and
     /// give the pdf of (the sampling section holds the weights [`Decoder::sample`] uses). Files with a
-    /// factor model (`FACT`) or warped tables (`WARP`) are not covered by layout version 1 and
+    /// factor model (`FACT`) or warped tables (`WARP`) are not covered by layout versions 1 and 2 and
     /// give [`Error::Parameter`].
     ///
     /// ```
