@@ -418,7 +418,7 @@ fn c_gpu_layout_is_the_decoders_and_checks_its_buffer() {
             SBRDF_ERR_NULL
         );
         sbrdf_close(b);
-        // A file layout version 1 does not cover: refused, no size.
+        // A file the layout does not cover: refused, no size.
         let warp = open("rgl_paper_warp_v14.sbrdf");
         let mut count = 7usize;
         assert_eq!(

@@ -24,19 +24,19 @@ const LOBE_WORDS: usize = 3;
 const ENCODING_F32: u32 = 1;
 const ENCODING_F16_PAIRS: u32 = 2;
 
-/// The layout of a resident material, or an error for a file version 1 does not cover.
+/// The layout of a resident material, or an error for a file the layout does not cover.
 pub(crate) fn gpu_layout(res: &Resident) -> Result<Vec<u32>> {
     if res.factor.is_some() {
         return Err(Error::Parameter(
-            "gpu layout: files with a factor model (FACT) are not covered by layout version 1 \
-             (spec/GPU_LAYOUT.md, \"Scope of version 1\")"
+            "gpu layout: files with a factor model (FACT) are not covered by the layout \
+             (spec/GPU_LAYOUT.md, \"Scope of versions 1 and 2\")"
                 .into(),
         ));
     }
     if res.warped.is_some() {
         return Err(Error::Parameter(
-            "gpu layout: files with warped tables (WARP) are not covered by layout version 1 \
-             (spec/GPU_LAYOUT.md, \"Scope of version 1\")"
+            "gpu layout: files with warped tables (WARP) are not covered by the layout \
+             (spec/GPU_LAYOUT.md, \"Scope of versions 1 and 2\")"
                 .into(),
         ));
     }

@@ -5,8 +5,8 @@
 Usage: python3 tests/python/check_gpu_layout.py SBRDF_BINARY --manifest MANIFEST [FILE...]
 
 For every file the golden MANIFEST lists, and every FILE, `sbrdf layout FILE -o OUT.bin` writes the layout.
-A file with a factor model (FACT) or warped tables (WARP) must be refused (version 1 does not
-cover them: GPU_LAYOUT.md, "Scope of version 1") and every other file laid out. Each layout is
+A file with a factor model (FACT) or warped tables (WARP) must be refused (the layout does not
+cover them: GPU_LAYOUT.md, "Scope of versions 1 and 2") and every other file laid out. Each layout is
 evaluated on the stored incidences and pseudo-random (incident, outgoing) pairs at the file's
 wavelengths plus wavelengths between them, and must agree with `sbrdf eval` within
 1e-5 relative + 1e-7 times the largest value seen for the file (the f32 layout's precision:
