@@ -232,18 +232,32 @@ fn encode_auto(
         held_out: true,
         ..opts.clone()
     };
-    let held = encode_records(set, &held_opts)?;
+    // The factor model is a format 1.1 feature: not a candidate under --format 1.0. Fitted side
+    // by side with the held records (independent fits: the result does not depend on the
+    // thread count).
+    let factor_candidate =
+        set.is_isotropic() && opts.format_minor >= crate::format::VERSION_MINOR_FACTOR;
+    let (held, shared) = rayon::join(
+        || -> Result<(Encoded, ErrorSums)> {
+            let held = encode_records(set, &held_opts)?;
+            Ok((held, cv(&held_opts)?))
+        },
+        || {
+            factor_candidate
+                .then(|| crate::encode::factor_model::encode_shared(set, opts))
+                .transpose()
+        },
+    );
+    let (held, held_cv) = held?;
     let mut candidates: Vec<(&str, Encoded, ErrorSums)> = vec![
         ("records fitted to the budget", classic, classic_cv),
         (
             "records held to the budget between the samples",
             held,
-            cv(&held_opts)?,
+            held_cv,
         ),
     ];
-    // The factor model is a format 1.1 feature: not a candidate under --format 1.0.
-    if set.is_isotropic() && opts.format_minor >= crate::format::VERSION_MINOR_FACTOR {
-        let shared = crate::encode::factor_model::encode_shared(set, opts)?;
+    if let Some(shared) = shared? {
         if let Some(h) = shared.held_out {
             candidates.push(("the factor model shared by every incidence", shared, h));
         }

@@ -19,6 +19,7 @@ use crate::model::factor::{
 };
 use crate::model::Precision;
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 /// One component to fit: its features and rank.
 #[derive(Debug, Clone, PartialEq)]
@@ -727,15 +728,23 @@ pub fn fit_factor(set: &SampleSet, opts: &FactorOptions) -> Option<FactorFit> {
                 rank
             })
             .collect();
+        let held = |f: usize, i: usize, d: usize| ranks[i][d] % k == f;
+        // The (μ, fold) fits are independent: fitted side by side, then scored in their order,
+        // so the choice does not depend on the thread count.
+        let jobs: Vec<(f64, usize)> = (opts.smoothness.iter())
+            .flat_map(|&mu| (0..k).map(move |f| (mu, f)))
+            .collect();
+        let fits: Vec<Option<FactorModel>> = jobs
+            .par_iter()
+            .map(|&(mu, f)| fit_once(set, &|i, d| !held(f, i, d), opts, eps, mu))
+            .collect();
         let mut best: Option<(f64, f64)> = None;
-        for &mu in &opts.smoothness {
+        for (c, &mu) in opts.smoothness.iter().enumerate() {
             let mut per = vec![ErrorSums::default(); set.incidences.len()];
             for f in 0..k {
-                let held = |i: usize, d: usize| ranks[i][d] % k == f;
-                let train = |i: usize, d: usize| !held(i, d);
-                if let Some(m) = fit_once(set, &train, opts, eps, mu) {
+                if let Some(m) = &fits[c * k + f] {
                     for (i, sums) in per.iter_mut().enumerate() {
-                        score(&m, set, &|j, d| j == i && held(j, d), eps, sums);
+                        score(m, set, &|j, d| j == i && held(f, j, d), eps, sums);
                     }
                 }
             }
