@@ -1,5 +1,5 @@
 // sbrdf.wgsl: evaluation of an sbrdf material from its flat device layout
-// (spec/GPU_LAYOUT.md, layout versions 1 and 2) in WGSL, all in f32.
+// (spec/GPU_LAYOUT.md, layout versions 1 to 3) in WGSL, all in f32.
 //
 // HOW TO USE. Paste (or concatenate) this text after the host shader's own declarations. It
 // declares NO binding itself: it reads the layout words from a storage array named
@@ -32,9 +32,10 @@
 // end (the spectral basis clamps it). The layout is assumed valid (made by `gpu_layout()`):
 // nothing here bounds-checks offsets.
 //
-// NOT COVERED. Files that `gpu_layout()` refuses (factor model FACT, warped tables WARP). A
-// layout without a sampling section (version 1) samples the cosine. No check of the header's
-// magic or version is made per query: the host checks them once.
+// NOT COVERED. Files that `gpu_layout()` refuses (warped tables, WARP). A layout without a
+// sampling section (version 1) samples the cosine. A factor model (FACT) is the model section
+// of version 3 (header word 19, 0 in versions 1 and 2): its F is added to the records' series.
+// No check of the header's magic or version is made per query: the host checks them once.
 //
 // PRECISION. Everything is f32; the CPU decoder computes in f64. The places where f32 would
 // lose more than a few units in the last place are written specially; each says why below.
@@ -945,6 +946,249 @@ fn sbrdf_series(base: u32, coef: ptr<function, array<f32, 256>>, tmax: u32, lamb
     return v;
 }
 
+// ------------------------------------------------------------------ the factor model
+
+// The model section of kind 1 (spec/GPU_LAYOUT.md, "Model section"; spec/EVALUATION.md, "Factor
+// model"): F(wi, wo, lambda) = sum_c exp(min(eta_c, 60)), added to the records' series before
+// the clamp at 0. The angular terms T_cr depend on the directions only and are computed once per
+// query (sbrdf_fact_terms); the spectra are interpolated per wavelength (sbrdf_fact_value).
+
+// The fixed nodes of each feature code, and U at the 1/cos axes' nodes (1/cos of the node,
+// computed in f64 and rounded to f32).
+const SBRDF_FACT_NODES_H = array<f32, 23>(0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0,
+    6.5, 8.0, 10.0, 13.0, 16.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0, 75.0, 90.0);
+const SBRDF_FACT_NODES_POLAR = array<f32, 12>(0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0,
+    75.0, 80.0, 85.0, 88.0);
+const SBRDF_FACT_U_POLAR = array<f32, 12>(1.0, 1.015426636, 1.064177752, 1.154700518,
+    1.305407286, 1.555723786, 2.0, 2.923804283, 3.863703251, 5.758770466, 11.47371292,
+    28.6537075);
+const SBRDF_FACT_NODES_COARSE = array<f32, 7>(0.0, 20.0, 40.0, 60.0, 70.0, 80.0, 88.0);
+const SBRDF_FACT_U_COARSE = array<f32, 7>(1.0, 1.064177752, 1.305407286, 2.0, 2.923804283,
+    5.758770466, 28.6537075);
+
+// (j, a) of v on an axis ("Tables": the largest j with n_j <= v, at most m - 2; a linear in U,
+// clamped to [0, 1]): axis 0 theta_h, 1 theta_d (every 10 degrees), 2 theta_i / theta_o
+// (in 1/cos, u = 1/cos of v), 3 the coarse theta_i axis of code 6 (likewise), 4 x (every 0.25).
+// v is already clamped to the stored range, which lies within the nodes.
+fn sbrdf_fact_locate(axis: u32, v: f32, u: f32) -> vec2<f32> {
+    var j = 0u;
+    var a = 0.0;
+    if (axis == 0u) {
+        for (var i = 1u; i < 22u; i = i + 1u) {
+            if (SBRDF_FACT_NODES_H[i] <= v) {
+                j = i;
+            }
+        }
+        a = (v - SBRDF_FACT_NODES_H[j]) / (SBRDF_FACT_NODES_H[j + 1u] - SBRDF_FACT_NODES_H[j]);
+    } else if (axis == 1u) {
+        j = min(u32(max(floor(v / 10.0), 0.0)), 8u);
+        a = (v - 10.0 * f32(j)) / 10.0;
+    } else if (axis == 2u) {
+        for (var i = 1u; i < 11u; i = i + 1u) {
+            if (SBRDF_FACT_NODES_POLAR[i] <= v) {
+                j = i;
+            }
+        }
+        a = (u - SBRDF_FACT_U_POLAR[j]) / (SBRDF_FACT_U_POLAR[j + 1u] - SBRDF_FACT_U_POLAR[j]);
+    } else if (axis == 3u) {
+        for (var i = 1u; i < 6u; i = i + 1u) {
+            if (SBRDF_FACT_NODES_COARSE[i] <= v) {
+                j = i;
+            }
+        }
+        a = (u - SBRDF_FACT_U_COARSE[j]) / (SBRDF_FACT_U_COARSE[j + 1u] - SBRDF_FACT_U_COARSE[j]);
+    } else {
+        j = min(u32(max(floor((v + 1.0) * 4.0), 0.0)), 7u);
+        a = (v - (-1.0 + 0.25 * f32(j))) * 4.0;
+    }
+    return vec2<f32>(bitcast<f32>(j), clamp(a, 0.0, 1.0));
+}
+
+// U = 1/cos(v degrees) of a polar feature v clamped to [0, 88]. `z` is the direction's own
+// cosine: when v is the unclamped angle of that direction, 1/z is U to f32 rounding, more
+// precise than the cosine of an f32 angle (which near 88 degrees loses tan(88) = 29 times).
+fn sbrdf_fact_secant(v: f32, raw: f32, z: f32) -> f32 {
+    let vc = clamp(v, 0.0, 88.0);
+    if (vc == raw && z > 0.0) {
+        return 1.0 / z;
+    }
+    return 1.0 / sbrdf_sincos_deg(vc).y;
+}
+
+// The value of table `code` (1..6) stored from value index `at` of a component's values.
+// f = (theta_h, theta_d, theta_i, theta_o) clamped, x clamped, s = (U of theta_i, U of theta_o).
+fn sbrdf_fact_table(o: u32, enc: u32, at: u32, code: u32, f: vec4<f32>, x: f32,
+    s: vec2<f32>) -> f32 {
+    if (code == 6u) {
+        let p = sbrdf_fact_locate(3u, f.z, s.x);
+        let q = sbrdf_fact_locate(4u, x, 0.0);
+        let j = bitcast<u32>(p.x);
+        let i = bitcast<u32>(q.x);
+        let a = p.y;
+        let b = q.y;
+        let t00 = sbrdf_value(o, at + 9u * j + i, enc, 1.0);
+        let t01 = sbrdf_value(o, at + 9u * j + i + 1u, enc, 1.0);
+        let t10 = sbrdf_value(o, at + 9u * (j + 1u) + i, enc, 1.0);
+        let t11 = sbrdf_value(o, at + 9u * (j + 1u) + i + 1u, enc, 1.0);
+        return (1.0 - a) * (1.0 - b) * t00 + (1.0 - a) * b * t01 + a * (1.0 - b) * t10
+            + a * b * t11;
+    }
+    var ja = vec2<f32>(0.0);
+    if (code == 1u) {
+        ja = sbrdf_fact_locate(0u, f.x, 0.0);
+    } else if (code == 2u) {
+        ja = sbrdf_fact_locate(1u, f.y, 0.0);
+    } else if (code == 3u) {
+        ja = sbrdf_fact_locate(2u, f.z, s.x);
+    } else if (code == 4u) {
+        ja = sbrdf_fact_locate(2u, f.w, s.y);
+    } else {
+        ja = sbrdf_fact_locate(4u, x, 0.0);
+    }
+    let j = bitcast<u32>(ja.x);
+    let t0 = sbrdf_value(o, at + j, enc, 1.0);
+    let t1 = sbrdf_value(o, at + j + 1u, enc, 1.0);
+    return (1.0 - ja.y) * t0 + ja.y * t1;
+}
+
+// Node count of a feature code's table.
+fn sbrdf_fact_len(code: u32) -> u32 {
+    switch (code) {
+        case 1u: { return 23u; }
+        case 2u: { return 10u; }
+        case 3u, 4u: { return 12u; }
+        case 5u: { return 9u; }
+        default: { return 63u; }
+    }
+}
+
+// The angular terms T_cr of the model section at absolute word m, at the unit upper-hemisphere
+// vectors ui, uo (any common frame: every feature is invariant under a turn about z), into t in
+// component order, rank-major.
+fn sbrdf_fact_terms(base: u32, m: u32, ui: vec3<f32>, uo: vec3<f32>,
+    t: ptr<function, array<f32, 64>>) {
+    let enc = sbrdf_u(m + 1u);
+    let nc = min(sbrdf_u(m + 2u), 8u);
+    let w = sbrdf_u(base + 7u);
+    // Features ("Factor model", Features), without turning the frame: theta_h from the sum's
+    // horizontal length and height, theta_d as half the angle between wi and wo (the angle
+    // between wi and the half vector), x as wo's component along wi's azimuth.
+    let ri = length(ui.xy);
+    let ro = length(uo.xy);
+    let mv = ui + uo;
+    let mh = length(mv.xy);
+    var th = 90.0;
+    var td = 90.0;
+    if (mh > 0.0 || mv.z > 0.0) {
+        th = sbrdf_atan2_deg(mh, mv.z);
+        td = sbrdf_atan2_deg(length(cross(ui, uo)), 1.0 + dot(ui, uo));
+    }
+    let ti = sbrdf_atan2_deg(ri, ui.z);
+    let to = sbrdf_atan2_deg(ro, uo.z);
+    var x = uo.x;
+    if (ri > 0.0) {
+        x = (ui.x * uo.x + ui.y * uo.y) / ri;
+    }
+    let raw = vec4<f32>(th, td, ti, to);
+    let lo = vec4<f32>(sbrdf_f(m + 4u), sbrdf_f(m + 6u), sbrdf_f(m + 8u), sbrdf_f(m + 10u));
+    let hi = vec4<f32>(sbrdf_f(m + 5u), sbrdf_f(m + 7u), sbrdf_f(m + 9u), sbrdf_f(m + 11u));
+    let f = clamp(raw, lo, hi);
+    let xc = clamp(x, sbrdf_f(m + 12u), sbrdf_f(m + 13u));
+    let s = vec2<f32>(sbrdf_fact_secant(f.z, ti, ui.z), sbrdf_fact_secant(f.w, to, uo.z));
+    var n = 0u;
+    for (var c = 0u; c < 8u; c = c + 1u) {
+        if (c >= nc) {
+            break;
+        }
+        let e = m + 14u + 4u * c;
+        let rank = min(sbrdf_u(e), 8u);
+        let nf = min(sbrdf_u(e + 1u), 6u);
+        let codes = sbrdf_u(e + 2u);
+        let o = base + sbrdf_u(e + 3u);
+        var nodes = 0u;
+        for (var k = 0u; k < 6u; k = k + 1u) {
+            if (k < nf) {
+                nodes = nodes + sbrdf_fact_len((codes >> (4u * k)) & 15u);
+            }
+        }
+        for (var r = 0u; r < 8u; r = r + 1u) {
+            if (r >= rank) {
+                break;
+            }
+            // Rank r's tables start at value r (W + nodes) + W (GPU_LAYOUT.md, "Model section").
+            var at = r * (w + nodes) + w;
+            var acc = 0.0;
+            for (var k = 0u; k < 6u; k = k + 1u) {
+                if (k >= nf) {
+                    break;
+                }
+                let code = (codes >> (4u * k)) & 15u;
+                acc = acc + sbrdf_fact_table(o, enc, at, code, f, xc, s);
+                at = at + sbrdf_fact_len(code);
+            }
+            (*t)[n] = acc;
+            n = n + 1u;
+        }
+    }
+}
+
+// F at wavelength lambda (finite) from the terms of sbrdf_fact_terms ("Factor model", Spectra).
+fn sbrdf_fact_value(base: u32, m: u32, t: ptr<function, array<f32, 64>>, lambda: f32) -> f32 {
+    let enc = sbrdf_u(m + 1u);
+    let nc = min(sbrdf_u(m + 2u), 8u);
+    let w = sbrdf_u(base + 7u);
+    let ow = base + sbrdf_u(base + 13u);
+    var j = 0u;
+    var a = 0.0;
+    if (w > 1u && lambda > sbrdf_f(ow)) {
+        if (lambda >= sbrdf_f(ow + w - 1u)) {
+            j = w - 1u;
+        } else {
+            let bw = sbrdf_bracket(ow, w, lambda);
+            j = bitcast<u32>(bw.x);
+            a = bw.y;
+        }
+    }
+    var total = 0.0;
+    var n = 0u;
+    for (var c = 0u; c < 8u; c = c + 1u) {
+        if (c >= nc) {
+            break;
+        }
+        let e = m + 14u + 4u * c;
+        let rank = min(sbrdf_u(e), 8u);
+        let nf = min(sbrdf_u(e + 1u), 6u);
+        let codes = sbrdf_u(e + 2u);
+        let o = base + sbrdf_u(e + 3u);
+        var nodes = 0u;
+        for (var k = 0u; k < 6u; k = k + 1u) {
+            if (k < nf) {
+                nodes = nodes + sbrdf_fact_len((codes >> (4u * k)) & 15u);
+            }
+        }
+        var eta = (*t)[n];
+        for (var r = 0u; r < 8u; r = r + 1u) {
+            if (r >= rank) {
+                break;
+            }
+            // s_c at value 0, w_cr (r >= 1) at value r (W + nodes).
+            let at = r * (w + nodes);
+            var sp = sbrdf_value(o, at + j, enc, 1.0);
+            if (a != 0.0) {
+                sp = sp + a * (sbrdf_value(o, at + j + 1u, enc, 1.0) - sp);
+            }
+            if (r == 0u) {
+                eta = eta + sp;
+            } else {
+                eta = eta + sp * (*t)[n + r];
+            }
+        }
+        n = n + rank;
+        total = total + exp(min(eta, 60.0));
+    }
+    return total;
+}
+
 // rho(wi, wo, lambda) in 1/sr ("Reconstruction"), never negative.
 fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
     if (!sbrdf_finite(lambda_nm)) {
@@ -955,7 +1199,14 @@ fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
     if (tmax == 0u) {
         return 0.0;
     }
-    return max(0.0, sbrdf_series(base, &coef, tmax, lambda_nm));
+    var v = sbrdf_series(base, &coef, tmax, lambda_nm);
+    let m = sbrdf_u(base + 19u);
+    if (m != 0u) {
+        var t: array<f32, 64>;
+        sbrdf_fact_terms(base, base + m, sbrdf_upper(wi).xyz, sbrdf_upper(wo).xyz, &t);
+        v = v + sbrdf_fact_value(base, base + m, &t, lambda_nm);
+    }
+    return max(0.0, v);
 }
 
 // SBRDF_RGB_WEIGHTS[i] = M E(l_i) (xbar, ybar, zbar)(l_i) / sum_j E(l_j) ybar(l_j), at
@@ -1049,17 +1300,27 @@ const SBRDF_RGB_WEIGHTS = array<vec3<f32>, 81>(
 // END GENERATED RGB WEIGHTS
 
 // Linear sRGB under D65 of rho(wi, wo, .) (Decoder::eval_linear_srgb with Illuminant::D65):
-// the coefficients once, then the series at each of the 81 wavelengths, clamped at 0.
+// the coefficients (and a factor model's angular terms) once, then the series (plus F) at each
+// of the 81 wavelengths, clamped at 0.
 fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     var coef: array<f32, 256>;
     let tmax = sbrdf_coefficients(base, wi, wo, &coef);
     if (tmax == 0u) {
         return vec3<f32>(0.0);
     }
+    let m = sbrdf_u(base + 19u);
+    var t: array<f32, 64>;
+    if (m != 0u) {
+        sbrdf_fact_terms(base, base + m, sbrdf_upper(wi).xyz, sbrdf_upper(wo).xyz, &t);
+    }
     var rgb = vec3<f32>(0.0);
     for (var i = 0u; i < 81u; i = i + 1u) {
         let lambda = 380.0 + 5.0 * f32(i);
-        let s = max(0.0, sbrdf_series(base, &coef, tmax, lambda));
+        var v = sbrdf_series(base, &coef, tmax, lambda);
+        if (m != 0u) {
+            v = v + sbrdf_fact_value(base, base + m, &t, lambda);
+        }
+        let s = max(0.0, v);
         rgb = rgb + s * SBRDF_RGB_WEIGHTS[i];
     }
     return rgb;

@@ -1392,11 +1392,11 @@ GPU_LAYOUT_MAGIC = 0x4C474253  # the bytes "SBGL"
 
 
 def layout_material(data, base=0):
-    """A material read from a flat device layout (spec/GPU_LAYOUT.md, version 1 or 2): `data` is the
+    """A material read from a flat device layout (spec/GPU_LAYOUT.md, version 1 to 3): `data` is the
     layout buffer's bytes (32-bit little-endian words, several materials possibly concatenated),
     `base` the word offset where this material's layout starts. Only the layout's words are
     read; the result evaluates with the same rules as a file (`.eval`). Raises Refused when the
-    words are not a version-1 or -2 layout or an offset points outside it."""
+    words are not a version 1 to 3 layout or an offset points outside it."""
     nwords = len(data) // 4
 
     def words(off, count, fmt="I"):
@@ -1408,9 +1408,10 @@ def layout_material(data, base=0):
     if head[0] != GPU_LAYOUT_MAGIC:
         raise malformed("layout: bad magic 0x%08x (GPU_LAYOUT.md, Header)" % head[0])
     # Version 2 adds the sampling section (header word 18, GPU_LAYOUT.md "Sampling section"),
-    # which this reader, an evaluator, ignores; the rest is version 1's.
-    if head[1] not in (1, 2):
-        raise unsupported("layout: version %d, this reader knows 1 and 2" % head[1])
+    # which this reader, an evaluator, ignores; version 3 the model section (word 19, read
+    # below); the rest is version 1's.
+    if head[1] not in (1, 2, 3):
+        raise unsupported("layout: version %d, this reader knows 1 to 3" % head[1])
     (total, inc_layout, basis, k, level, w, n, t, p) = head[2:11]
     lmin, lmax = struct.unpack("<2f", struct.pack("<2I", head[11], head[12]))
     off_waves, off_table, off_thetas, off_phis, off_recs = head[13:18]
@@ -1463,12 +1464,48 @@ def layout_material(data, base=0):
             r.lobes.append((kind, rows, words(off_par, n_par, "f")))
         m.records.append(r)
     m.incidences = [(r.theta_i, r.phi_i) for r in m.records]
+    if head[1] >= 3 and head[19] != 0:
+        m.fact, m.fact_ranges = layout_factor_model(words, values, head[19], w)
     return m
+
+
+def layout_factor_model(words, values, at, w):
+    """The model section of kind 1 (GPU_LAYOUT.md, "Model section"): the factor model as
+    `SbrdfFile.parse_fact` gives it ([(codes, spectra, tables)] per component) and its ranges."""
+    kind, encoding, count, _ = words(at, 4)
+    if kind != 1:
+        raise unsupported("layout: model section kind %d, this reader knows 1" % kind)
+    if encoding not in (1, 2) or not 1 <= count <= 8:
+        raise malformed("layout: model encoding %d or %d components" % (encoding, count))
+    rng = words(at + 4, 10, "f")
+    ranges = [(rng[2 * i], rng[2 * i + 1]) for i in range(5)]
+    components = []
+    for c in range(count):
+        rank, nfeat, packed, off = words(at + 14 + 4 * c, 4)
+        codes = [(packed >> (4 * k)) & 15 for k in range(nfeat)]
+        if not (1 <= rank <= 8 and 1 <= nfeat <= 6) or any(k not in FACT_NODE_COUNT for k in codes):
+            raise malformed("layout: model component %d: rank %d, features %r" % (c, rank, codes))
+        n = sum(FACT_NODE_COUNT[k] for k in codes)
+        # The file's order (§3.7): s_c, then per rank r its w_cr (r >= 1) and its tables, so
+        # w_cr starts at value r(W + n) and rank r's tables at r(W + n) + W. Scale 1.
+        vals = values(off, rank * (w + n), encoding, 1.0)
+        spectra, tables = [vals[:w]], []
+        for r in range(rank):
+            if r >= 1:
+                spectra.append(vals[r * (w + n):r * (w + n) + w])
+            pos = r * (w + n) + w
+            per_rank = []
+            for k in codes:
+                per_rank.append(vals[pos:pos + FACT_NODE_COUNT[k]])
+                pos += FACT_NODE_COUNT[k]
+            tables.append(per_rank)
+        components.append((codes, spectra, tables))
+    return components, ranges
 
 
 def layout_sampling_weights(data, base=0):
     """The sampling section of a flat device layout (spec/GPU_LAYOUT.md, "Sampling section",
-    version 2): per record (E_bg, [(E_l, ln b_l) per lobe]), or None when the layout has none
+    versions 2 and 3): per record (E_bg, [(E_l, ln b_l) per lobe]), or None when the layout has none
     (header word 18 = 0). The evaluator (`layout_material`) does not use it; this reads it so
     that a test can check it against this decoder's own integrals."""
     nwords = len(data) // 4
@@ -1479,8 +1516,8 @@ def layout_sampling_weights(data, base=0):
         return list(struct.unpack_from("<%d%s" % (count, fmt), data, 4 * (base + off)))
 
     head = words(0, 20)
-    if head[0] != GPU_LAYOUT_MAGIC or head[1] not in (1, 2):
-        raise malformed("layout: not a version 1 or 2 layout")
+    if head[0] != GPU_LAYOUT_MAGIC or head[1] not in (1, 2, 3):
+        raise malformed("layout: not a version 1 to 3 layout")
     s, n, off_recs = head[18], head[8], head[17]
     if s == 0:
         return None

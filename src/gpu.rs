@@ -1,7 +1,7 @@
 //! The WGSL evaluation module: `shaders/sbrdf.wgsl` as a string, to paste into a host shader.
 //!
 //! [`WGSL`] evaluates a material from its flat device layout ([`crate::Decoder::gpu_layout`],
-//! `spec/GPU_LAYOUT.md`, version 2) in f32 on a GPU:
+//! `spec/GPU_LAYOUT.md`, version 3) in f32 on a GPU:
 //!
 //! * `sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32`: ρ in 1/sr,
 //!   as [`crate::Decoder::eval`] computes it;
@@ -11,7 +11,8 @@
 //! * `sbrdf_pdf(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32` and `sbrdf_sample(base: u32, wi:
 //!   vec3<f32>, u: vec2<f32>) -> vec4<f32>` (direction in xyz, pdf in w): importance sampling as
 //!   [`crate::Decoder::pdf`] and [`crate::Decoder::sample`], from the layout's sampling section
-//!   (version 2; a layout without one samples the cosine).
+//!   (versions 2 and 3; a layout without one samples the cosine). A factor model (`FACT`) is the
+//!   layout's model section (version 3), whose F every evaluation adds.
 //!
 //! The text declares no binding: the host declares the storage array it reads, under the name
 //! `sbrdf_words`, before the module's text, and fills it with the layout's words (several

@@ -17,7 +17,7 @@ fn golden(name: &str) -> Vec<u8> {
 fn check_bounds(w: &[u32], name: &str) {
     let total = w.len();
     assert_eq!(w[0], MAGIC, "{name}");
-    assert_eq!(w[1], 2, "{name}: layout version");
+    assert_eq!(w[1], 3, "{name}: layout version");
     assert_eq!(w[2] as usize, total, "{name}: total words");
     let (k, wl, n, t, p) = (
         w[5] as usize,
@@ -82,6 +82,43 @@ fn check_bounds(w: &[u32], name: &str) {
             assert!(i % 2 == 0 || v >= 0.0, "{name}: record {r} lobe energy {v}");
         }
     }
+    // The model section (word 19): a factor model's fixed part, component entries and values.
+    let m = w[19];
+    if m != 0 {
+        within(m, 14 + 4 * 8, "model section");
+        let at = m as usize;
+        assert_eq!(w[at], 1, "{name}: model kind");
+        let enc = w[at + 1];
+        assert!(enc == 1 || enc == 2, "{name}: model encoding {enc}");
+        let c = w[at + 2] as usize;
+        assert!((1..=8).contains(&c), "{name}: {c} components");
+        within(m, 14 + 4 * c, "component entries");
+        for ci in 0..c {
+            let e = &w[at + 14 + 4 * ci..][..4];
+            let (rank, nf, codes) = (e[0] as usize, e[1] as usize, e[2]);
+            assert!(
+                (1..=8).contains(&rank) && (1..=6).contains(&nf),
+                "{name}: component {ci}"
+            );
+            let nodes: usize = (0..nf)
+                .map(|k| match (codes >> (4 * k)) & 15 {
+                    1 => 23,
+                    2 => 10,
+                    3 | 4 => 12,
+                    5 => 9,
+                    6 => 63,
+                    other => panic!("{name}: component {ci} feature code {other}"),
+                })
+                .sum();
+            assert_eq!(codes >> (4 * nf), 0, "{name}: bits past the feature codes");
+            let values = rank * (wl + nodes);
+            within(
+                e[3],
+                if enc == 1 { values } else { values.div_ceil(2) },
+                "model values",
+            );
+        }
+    }
 }
 
 #[test]
@@ -91,7 +128,7 @@ fn covered_golden_files_fit_in_one_and_a_half_times_their_size() {
         let bytes = golden(&name);
         let dec = Decoder::from_bytes(&bytes).unwrap();
         let m = dec.material();
-        let expect_covered = m.factor.is_none() && m.warped.is_none();
+        let expect_covered = m.warped.is_none();
         match dec.gpu_layout() {
             Ok(words) => {
                 assert!(expect_covered, "{name}: laid out although not covered");
@@ -104,6 +141,11 @@ fn covered_golden_files_fit_in_one_and_a_half_times_their_size() {
                 assert!(ratio <= 1.5, "{name}: layout {ratio:.3}× the file");
                 check_bounds(&words, &name);
                 assert_eq!(
+                    words[19] != 0,
+                    m.factor.is_some(),
+                    "{name}: a model section exactly when the file has a factor model"
+                );
+                assert_eq!(
                     words,
                     Decoder::from_bytes(&bytes).unwrap().gpu_layout().unwrap(),
                     "{name}: not deterministic"
@@ -113,10 +155,7 @@ fn covered_golden_files_fit_in_one_and_a_half_times_their_size() {
             Err(e) => {
                 assert!(!expect_covered, "{name}: covered file refused: {e}");
                 let msg = e.to_string();
-                assert!(
-                    msg.contains("FACT") || msg.contains("WARP"),
-                    "{name}: {msg}"
-                );
+                assert!(msg.contains("WARP"), "{name}: {msg}");
                 println!("{name}: not covered: {msg}");
             }
         }

@@ -160,9 +160,9 @@ impl Decoder {
 
     /// The flat device layout of this material (`spec/GPU_LAYOUT.md`): 32-bit little-endian
     /// words (f32 and u32) with a header of word offsets, for a shader to evaluate, sample and
-    /// give the pdf of (the sampling section holds the weights [`Decoder::sample`] uses). Files with a
-    /// factor model (`FACT`) or warped tables (`WARP`) are not covered by layout versions 1 and 2 and
-    /// give [`Error::Parameter`].
+    /// give the pdf of (the sampling section holds the weights [`Decoder::sample`] uses; the model
+    /// section a factor model, `FACT`). Files with warped tables (`WARP`) are not covered by the
+    /// layout and give [`Error::Parameter`].
     ///
     /// ```
     /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
@@ -174,14 +174,17 @@ impl Decoder {
     pub fn gpu_layout(&self) -> Result<Vec<u32>> {
         let mut words = super::gpu_layout::gpu_layout(&self.evaluator.res)?;
         let res = &self.evaluator.res;
-        // The records' mixture weights (spec/GPU_LAYOUT.md, "Sampling section"); files whose ρ
-        // is not given by the records alone sample otherwise and get none.
-        if res.factor.is_none() && res.warped.is_none() {
-            super::gpu_sampling::append_sampling_section(
-                &mut words,
-                self.sampling_weights(),
-                res.recs.len(),
-            )?;
+        // The records' mixture weights (spec/GPU_LAYOUT.md, "Sampling section"): what
+        // `Decoder::sample` draws from, a factor model included (it samples the records' mixture,
+        // whose cosine covers F).
+        super::gpu_sampling::append_sampling_section(
+            &mut words,
+            self.sampling_weights(),
+            res.recs.len(),
+        )?;
+        // The factor model (spec/GPU_LAYOUT.md, "Model section").
+        if let Some(model) = &res.factor {
+            super::gpu_factor::append_factor_section(&mut words, model)?;
         }
         Ok(words)
     }

@@ -12,7 +12,7 @@ use half::f16;
 /// `SBGL` read as a little-endian u32: the first word of every layout.
 pub const GPU_LAYOUT_MAGIC: u32 = u32::from_le_bytes(*b"SBGL");
 /// The version of `spec/GPU_LAYOUT.md` this module writes.
-pub const GPU_LAYOUT_VERSION: u32 = 2;
+pub const GPU_LAYOUT_VERSION: u32 = 3;
 /// Words in the header.
 const HEADER_WORDS: usize = 20;
 /// Words in a record table entry.
@@ -21,22 +21,15 @@ const RECORD_WORDS: usize = 12;
 const LOBE_WORDS: usize = 3;
 
 /// Value encodings of a record (`spec/GPU_LAYOUT.md`, "Value encodings").
-const ENCODING_F32: u32 = 1;
-const ENCODING_F16_PAIRS: u32 = 2;
+pub(super) const ENCODING_F32: u32 = 1;
+pub(super) const ENCODING_F16_PAIRS: u32 = 2;
 
 /// The layout of a resident material, or an error for a file the layout does not cover.
 pub(crate) fn gpu_layout(res: &Resident) -> Result<Vec<u32>> {
-    if res.factor.is_some() {
-        return Err(Error::Parameter(
-            "gpu layout: files with a factor model (FACT) are not covered by the layout \
-             (spec/GPU_LAYOUT.md, \"Scope of versions 1 and 2\")"
-                .into(),
-        ));
-    }
     if res.warped.is_some() {
         return Err(Error::Parameter(
             "gpu layout: files with warped tables (WARP) are not covered by the layout \
-             (spec/GPU_LAYOUT.md, \"Scope of versions 1 and 2\")"
+             (spec/GPU_LAYOUT.md, \"Scope\")"
                 .into(),
         ));
     }
@@ -146,7 +139,7 @@ pub(crate) fn gpu_layout(res: &Resident) -> Result<Vec<u32>> {
 }
 
 /// An offset or count as a u32 word; a layout past 2³² words cannot be addressed.
-fn word(v: usize) -> Result<u32> {
+pub(super) fn word(v: usize) -> Result<u32> {
     u32::try_from(v).map_err(|_| {
         Error::LimitsExceeded("gpu layout: more than 2^32 words cannot be addressed".into())
     })
@@ -187,7 +180,7 @@ fn record_encoding(res: &Resident, r: &Rec) -> (u32, f32) {
 }
 
 /// Appends values in an encoding, starting on a word boundary.
-fn push_values(out: &mut Vec<u32>, values: &[f32], encoding: u32, scale: f32) {
+pub(super) fn push_values(out: &mut Vec<u32>, values: &[f32], encoding: u32, scale: f32) {
     if encoding == ENCODING_F32 {
         out.extend(values.iter().map(|v| v.to_bits()));
         return;

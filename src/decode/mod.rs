@@ -13,6 +13,7 @@ mod draw;
 mod evaluator;
 mod general_coefficients;
 mod general_one_wavelength;
+mod gpu_factor;
 pub mod gpu_layout;
 mod gpu_sampling;
 mod kernel;
