@@ -18,6 +18,7 @@
 //! | [`format`](mod@format) | always | bytes: signature, chunks and CRCs, limits, reader and writer |
 //! | [`decode`] | always | the decoder, incidence blending, sampling, colour, the C ABI |
 //! | [`gpu`] | always | the WGSL module that evaluates the decoder's flat device layout |
+//! | [`preview`] | `preview` | the preview sphere's geometry and tone curve, for CPU and GPU renders |
 //! | [`encode`] | `encode` | from samples to a material: the fitters, budgets, subset, info |
 //! | [`io`] | `cli` | files in and out: CSV, EXR, atomic output, synthetic materials |
 //! | [`report`] | `cli` | pictures and studies: plots, previews, paper figures, the trade-off |
@@ -55,6 +56,8 @@ pub mod decode;
 pub mod format;
 pub mod gpu;
 pub mod model;
+#[cfg(feature = "preview")]
+pub mod preview;
 
 #[cfg(feature = "encode")]
 pub mod encode;

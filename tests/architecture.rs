@@ -8,8 +8,9 @@ use std::path::{Path, PathBuf};
 
 /// Rooms from the bottom up; a room may use the rooms before it and itself.
 /// `gpu` (the WGSL text) sits on `decode`: it evaluates what `Decoder::gpu_layout` writes.
-const ROOMS: [&str; 8] = [
-    "model", "format", "decode", "gpu", "encode", "io", "report", "cli",
+/// `preview` (the preview sphere without an evaluator, feature `preview`) on `model`.
+const ROOMS: [&str; 9] = [
+    "model", "format", "decode", "gpu", "preview", "encode", "io", "report", "cli",
 ];
 
 /// Files anyone may use, or that are the crate's surface.
