@@ -14,6 +14,9 @@
 // FUNCTIONS.
 //   sbrdf_eval(base, wi, wo, lambda_nm) -> f32
 //       rho(wi, wo, lambda) in 1/sr, as `Decoder::eval` computes it: never negative.
+//   sbrdf_eval4(base, wi, wo, lambda_nm: vec4<f32>) -> vec4<f32>
+//       rho at four wavelengths, the directions' work done once: component i equals
+//       sbrdf_eval(base, wi, wo, lambda_nm[i]).
 //   sbrdf_eval_rgb(base, wi, wo) -> vec3<f32>
 //       linear sRGB under D65, as `Decoder::eval_linear_srgb(wi, wo, Illuminant::D65)`:
 //       the spectrum at 380..780 nm every 5 nm (each value clamped at 0), weighted by
@@ -1207,6 +1210,34 @@ fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
         v = v + sbrdf_fact_value(base, base + m, &t, lambda_nm);
     }
     return max(0.0, v);
+}
+
+// rho at four wavelengths (a hero-wavelength renderer's four, as pbrt-v4 samples them): what
+// depends on the directions alone (blending, SH, lobes, a factor model's tables) is computed
+// once; component i is sbrdf_eval(base, wi, wo, lambda_nm[i]), a non-finite one 0.
+fn sbrdf_eval4(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: vec4<f32>) -> vec4<f32> {
+    var coef: array<f32, 256>;
+    let tmax = sbrdf_coefficients(base, wi, wo, &coef);
+    if (tmax == 0u) {
+        return vec4<f32>(0.0);
+    }
+    let m = sbrdf_u(base + 19u);
+    var t: array<f32, 64>;
+    if (m != 0u) {
+        sbrdf_fact_terms(base, base + m, sbrdf_upper(wi).xyz, sbrdf_upper(wo).xyz, &t);
+    }
+    var out = vec4<f32>(0.0);
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        let l = lambda_nm[i];
+        if (sbrdf_finite(l)) {
+            var v = sbrdf_series(base, &coef, tmax, l);
+            if (m != 0u) {
+                v = v + sbrdf_fact_value(base, base + m, &t, l);
+            }
+            out[i] = max(0.0, v);
+        }
+    }
+    return out;
 }
 
 // SBRDF_RGB_WEIGHTS[i] = M E(l_i) (xbar, ybar, zbar)(l_i) / sum_j E(l_j) ybar(l_j), at

@@ -5,6 +5,9 @@
 //!
 //! * `sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32`: ρ in 1/sr,
 //!   as [`crate::Decoder::eval`] computes it;
+//! * `sbrdf_eval4(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: vec4<f32>) -> vec4<f32>`:
+//!   ρ at four wavelengths (a hero-wavelength renderer's), the directions' work done once;
+//!   component i is `sbrdf_eval` at `lambda_nm[i]`;
 //! * `sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32>`: linear sRGB under
 //!   D65, as [`crate::Decoder::eval_linear_srgb`] with
 //!   [`Illuminant::D65`](crate::decode::color::Illuminant::D65);
@@ -106,5 +109,8 @@ mod tests {
         ));
         assert!(code
             .contains("fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32>"));
+        assert!(code.contains(
+            "fn sbrdf_eval4(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: vec4<f32>) -> vec4<f32>"
+        ));
     }
 }

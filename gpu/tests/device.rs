@@ -179,16 +179,24 @@ fn eval_matches_cpu_on_every_covered_sample() {
             }
         }
         let out = gpu.run(&module, "eval_spectral", &buf.words, &queries, 1);
+        // sbrdf_eval4: the same pairs, each at its four wavelengths in one call.
+        let out4 = gpu.run(&module, "eval_four", &buf.words, &queries, 1);
         let m = cpu.iter().fold(0.0f64, |a, &v| a.max(v.abs() as f64));
         assert!(m > 0.0, "{}: every CPU value is 0", mat.name);
         let known = KNOWN_F32_LIMIT.iter().find(|(n, _)| *n == mat.name);
         let abs_of_max = known.map_or(ABS_OF_MAX, |&(_, a)| a);
         let mut worst = Worst::new(abs_of_max);
+        let mut worst4 = Worst::new(abs_of_max);
         for (i, q) in queries.iter().enumerate() {
-            worst.check(out[i], cpu[i] as f64, m, || {
-                format!("wi {:?} wo {:?} λ {}", q.wi, q.wo, q.lambda_nm)
-            });
+            let what = || format!("wi {:?} wo {:?} λ {}", q.wi, q.wo, q.lambda_nm);
+            worst.check(out[i], cpu[i] as f64, m, what);
+            worst4.check(out4[i], cpu[i] as f64, m, what);
         }
+        let same4 = out
+            .iter()
+            .zip(&out4)
+            .filter(|(a, b)| a.to_bits() == b.to_bits())
+            .count();
 
         // RGB on the first pairs: the CPU integrates 81 wavelengths per pair.
         let rgb_queries: Vec<Query> = pairs[..RGB_PAIRS]
@@ -227,6 +235,13 @@ fn eval_matches_cpu_on_every_covered_sample() {
             worst_rgb.ratio,
             worst_rgb.failures
         );
+        println!(
+            "    sbrdf_eval4: worst {:.3} of tolerance, {} over; {same4} of {} values bit for bit \
+             sbrdf_eval's",
+            worst4.ratio,
+            worst4.failures,
+            out.len()
+        );
         if let Some((_, a)) = known {
             println!(
                 "    known f32 limit: held to {a:e}·M instead of {ABS_OF_MAX:e}·M; over the strict \
@@ -240,7 +255,11 @@ fn eval_matches_cpu_on_every_covered_sample() {
                 ));
             }
         }
-        for (w, kind) in [(&worst, "spectral"), (&worst_rgb, "rgb")] {
+        for (w, kind) in [
+            (&worst, "spectral"),
+            (&worst4, "eval4"),
+            (&worst_rgb, "rgb"),
+        ] {
             if w.failures > 0 {
                 println!("    worst {kind}: {}", w.example);
                 failed.push(format!("{} ({kind}: {} over)", mat.name, w.failures));

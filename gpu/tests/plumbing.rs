@@ -53,5 +53,29 @@ fn materials_are_addressed_by_base_offset() {
         assert_eq!(rgb[3 * i + 1], lmax, "material {m}: λmax");
         assert_eq!(rgb[3 * i + 2], l[2] as f32, "material {m}: total_words");
     }
+    // eval_four: each group of four consecutive queries is one call of sbrdf_eval4 with the
+    // first query's directions and base and the four queries' wavelengths (the probe's
+    // sbrdf_eval4 is sbrdf_eval at each).
+    let mut fours = Vec::new();
+    for q in queries
+        .iter()
+        .take(queries.len() / 4 * 4)
+        .collect::<Vec<_>>()
+        .chunks(4)
+    {
+        for (k, _) in q.iter().enumerate() {
+            fours.push(Query {
+                lambda_nm: 10.0 * k as f32,
+                ..*q[0]
+            });
+        }
+    }
+    assert!(!fours.is_empty(), "need four materials for eval_four");
+    let four = gpu.run(&module, "eval_four", &buf.words, &fours, 1);
+    for (i, q) in fours.iter().enumerate() {
+        let m = buf.bases.iter().position(|&b| b == q.base).unwrap();
+        let want = f32::from_bits(layouts[m][11]) + q.lambda_nm + q.wi[0] + q.wo[1];
+        assert_eq!(four[i].to_bits(), want.to_bits(), "eval_four query {i}");
+    }
     println!("{} materials addressed by base offset: OK", layouts.len());
 }

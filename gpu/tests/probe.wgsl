@@ -8,6 +8,12 @@ fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
     return bitcast<f32>(sbrdf_words[base + 11u]) + lambda_nm + wi.x + wo.y;
 }
 
+// sbrdf_eval at each of the four wavelengths.
+fn sbrdf_eval4(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(sbrdf_eval(base, wi, wo, lambda_nm.x), sbrdf_eval(base, wi, wo, lambda_nm.y),
+        sbrdf_eval(base, wi, wo, lambda_nm.z), sbrdf_eval(base, wi, wo, lambda_nm.w));
+}
+
 // The header's λmin, λmax and total_words of the material at `base`.
 fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(

@@ -88,7 +88,7 @@ fn shader_translates_to_every_backend() {
     translate_everywhere(
         &full_module(&shader_source()),
         &path.display().to_string(),
-        &["eval_spectral", "eval_rgb"],
+        &["eval_spectral", "eval_four", "eval_rgb"],
     );
 }
 
@@ -97,7 +97,7 @@ fn shader_translates_to_every_backend() {
 fn sampling_functions_translate_to_every_backend() {
     let path = shader_path();
     let src = format!("{}\n{SAMPLING_ENTRY_POINTS}", full_module(&shader_source()));
-    let mut expect = vec!["eval_spectral", "eval_rgb"];
+    let mut expect = vec!["eval_spectral", "eval_four", "eval_rgb"];
     expect.extend(SAMPLING_ENTRIES);
     translate_everywhere(&src, &path.display().to_string(), &expect);
 }
@@ -109,6 +109,6 @@ fn prelude_and_entry_points_translate() {
     translate_everywhere(
         &full_module(include_str!("probe.wgsl")),
         "tests/probe.wgsl",
-        &["eval_spectral", "eval_rgb"],
+        &["eval_spectral", "eval_four", "eval_rgb"],
     );
 }

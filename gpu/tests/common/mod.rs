@@ -32,8 +32,8 @@ pub fn shader_source() -> String {
 
 /// The host's declarations, pasted before the shader as its contract says: the layout words the
 /// shader reads as `sbrdf_words`, the queries, and the results. A query is 8 words:
-/// wi.xyz, λ (nm), wo.xyz, and the material's base word offset (bitcast). Two entry points, one
-/// per function, so that one module serves both comparisons.
+/// wi.xyz, λ (nm), wo.xyz, and the material's base word offset (bitcast). One entry point per
+/// function, so that one module serves every comparison.
 pub const PRELUDE: &str = r#"
 @group(0) @binding(0) var<storage, read> sbrdf_words: array<u32>;
 struct Query { wi: vec3<f32>, lambda_nm: f32, wo: vec3<f32>, base: u32 }
@@ -49,6 +49,22 @@ fn eval_spectral(@builtin(global_invocation_id) id: vec3<u32>) {
     if (i >= arrayLength(&queries)) { return; }
     let q = queries[i];
     results[i] = sbrdf_eval(q.base, q.wi, q.wo, q.lambda_nm);
+}
+
+// sbrdf_eval4 on four consecutive queries (one pair at four wavelengths): the first of each
+// four evaluates them all. The query count must be a multiple of 4.
+@compute @workgroup_size(64)
+fn eval_four(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i + 3u >= arrayLength(&queries) || (i & 3u) != 0u) { return; }
+    let q = queries[i];
+    let l = vec4<f32>(q.lambda_nm, queries[i + 1u].lambda_nm, queries[i + 2u].lambda_nm,
+        queries[i + 3u].lambda_nm);
+    let v = sbrdf_eval4(q.base, q.wi, q.wo, l);
+    results[i] = v.x;
+    results[i + 1u] = v.y;
+    results[i + 2u] = v.z;
+    results[i + 3u] = v.w;
 }
 
 @compute @workgroup_size(64)
