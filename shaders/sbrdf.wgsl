@@ -1065,6 +1065,17 @@ fn sbrdf_fact_len(code: u32) -> u32 {
     }
 }
 
+// n_c, the node count of a component's tables: the sum over its nf packed feature codes.
+fn sbrdf_fact_nodes(codes: u32, nf: u32) -> u32 {
+    var nodes = 0u;
+    for (var k = 0u; k < 6u; k = k + 1u) {
+        if (k < nf) {
+            nodes = nodes + sbrdf_fact_len((codes >> (4u * k)) & 15u);
+        }
+    }
+    return nodes;
+}
+
 // The angular terms T_cr of the model section at absolute word m, at the unit upper-hemisphere
 // vectors ui, uo (any common frame: every feature is invariant under a turn about z), into t in
 // component order, rank-major.
@@ -1108,12 +1119,7 @@ fn sbrdf_fact_terms(base: u32, m: u32, ui: vec3<f32>, uo: vec3<f32>,
         let nf = min(sbrdf_u(e + 1u), 6u);
         let codes = sbrdf_u(e + 2u);
         let o = base + sbrdf_u(e + 3u);
-        var nodes = 0u;
-        for (var k = 0u; k < 6u; k = k + 1u) {
-            if (k < nf) {
-                nodes = nodes + sbrdf_fact_len((codes >> (4u * k)) & 15u);
-            }
-        }
+        let nodes = sbrdf_fact_nodes(codes, nf);
         for (var r = 0u; r < 8u; r = r + 1u) {
             if (r >= rank) {
                 break;
@@ -1163,12 +1169,7 @@ fn sbrdf_fact_value(base: u32, m: u32, t: ptr<function, array<f32, 64>>, lambda:
         let nf = min(sbrdf_u(e + 1u), 6u);
         let codes = sbrdf_u(e + 2u);
         let o = base + sbrdf_u(e + 3u);
-        var nodes = 0u;
-        for (var k = 0u; k < 6u; k = k + 1u) {
-            if (k < nf) {
-                nodes = nodes + sbrdf_fact_len((codes >> (4u * k)) & 15u);
-            }
-        }
+        let nodes = sbrdf_fact_nodes(codes, nf);
         var eta = (*t)[n];
         for (var r = 0u; r < 8u; r = r + 1u) {
             if (r >= rank) {
@@ -1192,6 +1193,29 @@ fn sbrdf_fact_value(base: u32, m: u32, t: ptr<function, array<f32, 64>>, lambda:
     return total;
 }
 
+// The model section's angular terms for the query, when the layout has one (header word 19;
+// returns its absolute word, 0 when none). The directions are those sbrdf_coefficients accepted.
+fn sbrdf_model_terms(base: u32, wi: vec3<f32>, wo: vec3<f32>,
+    t: ptr<function, array<f32, 64>>) -> u32 {
+    let m = sbrdf_u(base + 19u);
+    if (m == 0u) {
+        return 0u;
+    }
+    sbrdf_fact_terms(base, base + m, sbrdf_upper(wi).xyz, sbrdf_upper(wo).xyz, t);
+    return base + m;
+}
+
+// rho at one finite wavelength from the blended coefficients and the model's terms (m = 0:
+// none): the series plus F, clamped at 0 ("Reconstruction", step 5).
+fn sbrdf_rho(base: u32, coef: ptr<function, array<f32, 256>>, tmax: u32, m: u32,
+    t: ptr<function, array<f32, 64>>, lambda: f32) -> f32 {
+    var v = sbrdf_series(base, coef, tmax, lambda);
+    if (m != 0u) {
+        v = v + sbrdf_fact_value(base, m, t, lambda);
+    }
+    return max(0.0, v);
+}
+
 // rho(wi, wo, lambda) in 1/sr ("Reconstruction"), never negative.
 fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
     if (!sbrdf_finite(lambda_nm)) {
@@ -1202,14 +1226,9 @@ fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
     if (tmax == 0u) {
         return 0.0;
     }
-    var v = sbrdf_series(base, &coef, tmax, lambda_nm);
-    let m = sbrdf_u(base + 19u);
-    if (m != 0u) {
-        var t: array<f32, 64>;
-        sbrdf_fact_terms(base, base + m, sbrdf_upper(wi).xyz, sbrdf_upper(wo).xyz, &t);
-        v = v + sbrdf_fact_value(base, base + m, &t, lambda_nm);
-    }
-    return max(0.0, v);
+    var t: array<f32, 64>;
+    let m = sbrdf_model_terms(base, wi, wo, &t);
+    return sbrdf_rho(base, &coef, tmax, m, &t, lambda_nm);
 }
 
 // rho at four wavelengths (a hero-wavelength renderer's four, as pbrt-v4 samples them): what
@@ -1221,20 +1240,13 @@ fn sbrdf_eval4(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: vec4<f32>) ->
     if (tmax == 0u) {
         return vec4<f32>(0.0);
     }
-    let m = sbrdf_u(base + 19u);
     var t: array<f32, 64>;
-    if (m != 0u) {
-        sbrdf_fact_terms(base, base + m, sbrdf_upper(wi).xyz, sbrdf_upper(wo).xyz, &t);
-    }
+    let m = sbrdf_model_terms(base, wi, wo, &t);
     var out = vec4<f32>(0.0);
     for (var i = 0u; i < 4u; i = i + 1u) {
         let l = lambda_nm[i];
         if (sbrdf_finite(l)) {
-            var v = sbrdf_series(base, &coef, tmax, l);
-            if (m != 0u) {
-                v = v + sbrdf_fact_value(base, base + m, &t, l);
-            }
-            out[i] = max(0.0, v);
+            out[i] = sbrdf_rho(base, &coef, tmax, m, &t, l);
         }
     }
     return out;
@@ -1339,19 +1351,12 @@ fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     if (tmax == 0u) {
         return vec3<f32>(0.0);
     }
-    let m = sbrdf_u(base + 19u);
     var t: array<f32, 64>;
-    if (m != 0u) {
-        sbrdf_fact_terms(base, base + m, sbrdf_upper(wi).xyz, sbrdf_upper(wo).xyz, &t);
-    }
+    let m = sbrdf_model_terms(base, wi, wo, &t);
     var rgb = vec3<f32>(0.0);
     for (var i = 0u; i < 81u; i = i + 1u) {
         let lambda = 380.0 + 5.0 * f32(i);
-        var v = sbrdf_series(base, &coef, tmax, lambda);
-        if (m != 0u) {
-            v = v + sbrdf_fact_value(base, base + m, &t, lambda);
-        }
-        let s = max(0.0, v);
+        let s = sbrdf_rho(base, &coef, tmax, m, &t, lambda);
         rgb = rgb + s * SBRDF_RGB_WEIGHTS[i];
     }
     return rgb;
