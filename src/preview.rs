@@ -1,16 +1,20 @@
-//! The preview sphere (`sbrdf preview`): its geometry and its tone curve, without an evaluator,
-//! so that the CPU program (`report::preview`, with the `cli` feature) and a GPU (the
-//! `gpu_preview` example in `gpu/`, which evaluates on the device with `sbrdf_eval_rgb`) render
-//! the same picture from the same queries. No dependency beyond the standard library.
+//! The preview sphere (`sbrdf preview`): its geometry, its tone curve and the CPU decoder's
+//! radiance per sub-sample, so that the CPU program (`report::preview`, with the `cli`
+//! feature) and a GPU (the `gpu_preview` example in `gpu/`, which evaluates on the device with
+//! `sbrdf_eval_rgb`) render the same picture from the same queries. No dependency beyond the
+//! decoder and the standard library.
 //!
 //! A render is three steps: [`preview_samples`] gives, per sub-sample, the light and view
 //! directions in the surface's local frame (or that the sub-sample misses the sphere or is
-//! unlit); the caller evaluates linear sRGB under D65 at each (`Decoder::eval_linear_srgb`, or
-//! the shader) and multiplies by cos θi ([`PreviewSample::radiance`]); [`tone_map`] turns the
-//! radiances into 8-bit sRGB pixels.
+//! unlit); the caller evaluates linear sRGB under D65 at each and multiplies by cos θi
+//! ([`PreviewSample::radiance_on_cpu`] with the decoder, [`PreviewSample::radiance`] from a
+//! value evaluated elsewhere, such as the shader); [`tone_map`] turns the radiances into 8-bit
+//! sRGB pixels.
 
+use crate::decode::color::Illuminant;
 use crate::error::{Error, Result};
 use crate::model::angles::{dir_from_deg, dot, normalize};
+use crate::Decoder;
 
 /// A sphere seen from the camera, lit by a point light of D65's spectrum.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -79,6 +83,18 @@ impl PreviewSample {
             PreviewSample::Unlit => Some([0.0; 3]),
             PreviewSample::Lit { cos_i, .. } => Some(rgb.map(|c| c * cos_i)),
         }
+    }
+
+    /// The sub-sample's radiance with the BRDF evaluated by the CPU decoder, linear sRGB under
+    /// D65 ([`Decoder::eval_linear_srgb`]): what `sbrdf preview` renders.
+    pub fn radiance_on_cpu(&self, dec: &Decoder) -> Option<[f64; 3]> {
+        let rgb = match *self {
+            PreviewSample::Lit { light, view, .. } => {
+                dec.eval_linear_srgb(light, view, Illuminant::D65)
+            }
+            _ => [0.0; 3],
+        };
+        self.radiance(rgb)
     }
 }
 

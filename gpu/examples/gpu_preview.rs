@@ -15,7 +15,6 @@
 mod common;
 
 use common::{full_module, shader_source, Gpu, Query};
-use sbrdf::decode::color::Illuminant;
 use sbrdf::preview::{preview_samples, tone_map, PreviewOptions, PreviewSample};
 use sbrdf::Decoder;
 use std::path::PathBuf;
@@ -135,18 +134,7 @@ fn run() -> Result<bool, String> {
 
     // The CPU: the same sub-samples through the decoder, as `sbrdf preview` renders them.
     let start = std::time::Instant::now();
-    let radiance: Vec<Option<[f64; 3]>> = samples
-        .iter()
-        .map(|s| {
-            let rgb = match *s {
-                PreviewSample::Lit { light, view, .. } => {
-                    dec.eval_linear_srgb(light, view, Illuminant::D65)
-                }
-                _ => [0.0; 3],
-            };
-            s.radiance(rgb)
-        })
-        .collect();
+    let radiance: Vec<Option<[f64; 3]>> = samples.iter().map(|s| s.radiance_on_cpu(&dec)).collect();
     let cpu_time = start.elapsed();
     let cpu = tone_map(&a.options, &radiance).map_err(|e| e.to_string())?;
 

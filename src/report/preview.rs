@@ -3,9 +3,8 @@
 //! GPU renders from too (the `gpu_preview` example in `gpu/`).
 
 use super::draw::encode_png;
-use crate::decode::color::Illuminant;
 use crate::error::Result;
-use crate::preview::{preview_samples, tone_map, PreviewSample};
+use crate::preview::{preview_samples, tone_map};
 pub use crate::preview::{Preview, PreviewOptions};
 use crate::Decoder;
 use rayon::prelude::*;
@@ -24,17 +23,7 @@ impl Preview {
 /// are interpolated by the decoder. Exposure and tone curve: [`crate::preview::tone_map`].
 pub fn render_preview(dec: &Decoder, o: &PreviewOptions) -> Result<Preview> {
     let samples = preview_samples(o)?;
-    let radiance: Vec<Option<[f64; 3]>> = samples
-        .par_iter()
-        .map(|s| {
-            let rgb = match *s {
-                PreviewSample::Lit { light, view, .. } => {
-                    dec.eval_linear_srgb(light, view, Illuminant::D65)
-                }
-                _ => [0.0; 3],
-            };
-            s.radiance(rgb)
-        })
-        .collect();
+    let radiance: Vec<Option<[f64; 3]>> =
+        samples.par_iter().map(|s| s.radiance_on_cpu(dec)).collect();
     tone_map(o, &radiance)
 }
