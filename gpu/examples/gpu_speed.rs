@@ -17,7 +17,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::{shader_source, Gpu, Query, Rng, PRELUDE};
+use common::{full_module, query_words, shader_source, Gpu, Query, Rng};
 use sbrdf::Decoder;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -324,26 +324,9 @@ fn run() -> Result<(), String> {
 
     let gpu = Gpu::new();
     let d = &gpu.device;
-    let entries = r#"
-@compute @workgroup_size(64)
-fn eval_spectral(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if (i >= arrayLength(&queries)) { return; }
-    let q = queries[i];
-    results[i] = sbrdf_eval(q.base, q.wi, q.wo, q.lambda_nm);
-}
-@compute @workgroup_size(64)
-fn eval_four(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = 4u * id.x;
-    if (i + 3u >= arrayLength(&queries)) { return; }
-    let q = queries[i];
-    let l = vec4<f32>(q.lambda_nm, queries[i + 1u].lambda_nm, queries[i + 2u].lambda_nm,
-        queries[i + 3u].lambda_nm);
-    let v = sbrdf_eval4(q.base, q.wi, q.wo, l);
-    results[i] = v.x; results[i + 1u] = v.y; results[i + 2u] = v.z; results[i + 3u] = v.w;
-}
-"#;
-    let source = format!("{PRELUDE}\n{}\n{DENSE}\n{entries}", shader_source());
+    // The tests' module (prelude, shader, entry points eval_spectral and eval_four), then the
+    // table's lookup and entry points.
+    let source = format!("{}\n{DENSE}", full_module(&shader_source()));
     let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("sbrdf speed"),
         source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -355,20 +338,9 @@ fn eval_four(@builtin(global_invocation_id) id: vec3<u32>) {
             usage,
         })
     };
-    let q_words = |q: &[Query]| -> Vec<u32> {
-        q.iter()
-            .flat_map(|q| {
-                let mut w: Vec<u32> = q.wi.iter().map(|v| v.to_bits()).collect();
-                w.push(q.lambda_nm.to_bits());
-                w.extend(q.wo.iter().map(|v| v.to_bits()));
-                w.push(q.base);
-                w
-            })
-            .collect()
-    };
     let words_buf = storage(&words, wgpu::BufferUsages::STORAGE);
-    let sq = storage(&q_words(&sbrdf_q), wgpu::BufferUsages::STORAGE);
-    let dq = storage(&q_words(&dense_q), wgpu::BufferUsages::STORAGE);
+    let sq = storage(&query_words(&sbrdf_q), wgpu::BufferUsages::STORAGE);
+    let dq = storage(&query_words(&dense_q), wgpu::BufferUsages::STORAGE);
     let out = d.create_buffer(&wgpu::BufferDescriptor {
         label: None,
         size: (4 * n) as u64,

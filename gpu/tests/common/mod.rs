@@ -51,12 +51,13 @@ fn eval_spectral(@builtin(global_invocation_id) id: vec3<u32>) {
     results[i] = sbrdf_eval(q.base, q.wi, q.wo, q.lambda_nm);
 }
 
-// sbrdf_eval4 on four consecutive queries (one pair at four wavelengths): the first of each
-// four evaluates them all. The query count must be a multiple of 4.
+// sbrdf_eval4 on four consecutive queries (one pair at four wavelengths): invocation k
+// evaluates queries 4k to 4k + 3, so a quarter as many invocations as queries suffice (more
+// return at once). The query count must be a multiple of 4.
 @compute @workgroup_size(64)
 fn eval_four(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if (i + 3u >= arrayLength(&queries) || (i & 3u) != 0u) { return; }
+    let i = 4u * id.x;
+    if (i + 3u >= arrayLength(&queries)) { return; }
     let q = queries[i];
     let l = vec4<f32>(q.lambda_nm, queries[i + 1u].lambda_nm, queries[i + 2u].lambda_nm,
         queries[i + 3u].lambda_nm);
@@ -126,7 +127,8 @@ pub struct Query {
     pub base: u32,
 }
 
-fn query_words(q: &[Query]) -> Vec<u32> {
+/// Queries as the words of the prelude's `Query` array.
+pub fn query_words(q: &[Query]) -> Vec<u32> {
     let mut w = Vec::with_capacity(q.len() * 8);
     for q in q {
         w.extend(q.wi.iter().map(|v| v.to_bits()));
