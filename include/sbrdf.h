@@ -54,8 +54,8 @@ int  sbrdf_pdf(const sbrdf_t *b, const float wi[3], const float wo[3], float *pd
 /* The flat device layout of the material (spec/GPU_LAYOUT.md): 32-bit little-endian words for a
  * GPU kernel. *word_count always receives the words it needs (0 on error); they are written
  * only when words is not NULL and capacity (in words) holds them. Query with words = NULL first;
- * a buffer too small is SBRDF_ERR_ARGUMENT, nothing written. Files with warped tables (WARP) are
- * not covered by the layout: SBRDF_ERR_ARGUMENT. */
+ * a buffer too small is SBRDF_ERR_ARGUMENT, nothing written. Every file is covered; files with
+ * warped tables (WARP, the RGL measurements) from layout version 4 on. */
 int  sbrdf_gpu_layout(const sbrdf_t *b, uint32_t *words, size_t capacity, size_t *word_count);
 void sbrdf_close(sbrdf_t *b);
 const char *sbrdf_error_message(int code);                    /* static string, never NULL */

@@ -1,5 +1,5 @@
 // sbrdf.wgsl: evaluation of an sbrdf material from its flat device layout
-// (spec/GPU_LAYOUT.md, layout versions 1 to 3) in WGSL, all in f32.
+// (spec/GPU_LAYOUT.md, layout versions 1 to 4) in WGSL, all in f32.
 //
 // HOW TO USE. Paste (or concatenate) this text after the host shader's own declarations. It
 // declares NO binding itself: it reads the layout words from a storage array named
@@ -35,9 +35,11 @@
 // end (the spectral basis clamps it). The layout is assumed valid (made by `gpu_layout()`):
 // nothing here bounds-checks offsets.
 //
-// NOT COVERED. Files that `gpu_layout()` refuses (warped tables, WARP). A layout without a
-// sampling section (version 1) samples the cosine. A factor model (FACT) is the model section
-// of version 3 (header word 19, 0 in versions 1 and 2): its F is added to the records' series.
+// MODEL SECTIONS. A layout without a sampling section (version 1) samples the cosine. A factor
+// model (FACT) is the model section of kind 1 (version 3, header word 19; 0 in versions 1 and 2):
+// its F is added to the records' series. Warped tables (WARP, the RGL measurements) are the
+// model section of kind 2 (version 4): they answer every query and sample themselves (the
+// "warped tables" block at the end).
 // No check of the header's magic or version is made per query: the host checks them once.
 //
 // PRECISION. Everything is f32; the CPU decoder computes in f64. The places where f32 would
@@ -1221,6 +1223,10 @@ fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
     if (!sbrdf_finite(lambda_nm)) {
         return 0.0;
     }
+    let w = sbrdf_warp_section(base);
+    if (w != 0u) {
+        return sbrdf_warp_eval4(base, w, wi, wo, vec4<f32>(lambda_nm)).x;
+    }
     var coef: array<f32, 256>;
     let tmax = sbrdf_coefficients(base, wi, wo, &coef);
     if (tmax == 0u) {
@@ -1235,6 +1241,10 @@ fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
 // depends on the directions alone (blending, SH, lobes, a factor model's tables) is computed
 // once; component i is sbrdf_eval(base, wi, wo, lambda_nm[i]), a non-finite one 0.
 fn sbrdf_eval4(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: vec4<f32>) -> vec4<f32> {
+    let w = sbrdf_warp_section(base);
+    if (w != 0u) {
+        return sbrdf_warp_eval4(base, w, wi, wo, lambda_nm);
+    }
     var coef: array<f32, 256>;
     let tmax = sbrdf_coefficients(base, wi, wo, &coef);
     if (tmax == 0u) {
@@ -1346,6 +1356,10 @@ const SBRDF_RGB_WEIGHTS = array<vec3<f32>, 81>(
 // the coefficients (and a factor model's angular terms) once, then the series (plus F) at each
 // of the 81 wavelengths, clamped at 0.
 fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let w = sbrdf_warp_section(base);
+    if (w != 0u) {
+        return sbrdf_warp_eval_rgb(base, w, wi, wo);
+    }
     var coef: array<f32, 256>;
     let tmax = sbrdf_coefficients(base, wi, wo, &coef);
     if (tmax == 0u) {
@@ -1906,6 +1920,10 @@ fn sbrdf_smp_draw(mx: SbrdfMix, i: u32, u: vec2<f32>) -> vec4<f32> {
 
 // The density (1/sr) with which sbrdf_sample draws wo for wi (Decoder::pdf).
 fn sbrdf_pdf(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let w = sbrdf_warp_section(base);
+    if (w != 0u) {
+        return sbrdf_warp_pdf(w, wi, wo);
+    }
     let ui = sbrdf_upper(wi);
     let uo = sbrdf_upper(wo);
     if (ui.w == 0.0 || uo.w == 0.0) {
@@ -1926,6 +1944,10 @@ fn sbrdf_sample(base: u32, wi: vec3<f32>, u_in: vec2<f32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     let u = clamp(u_in, vec2<f32>(0.0), vec2<f32>(SBRDF_ONE_BELOW));
+    let w = sbrdf_warp_section(base);
+    if (w != 0u) {
+        return sbrdf_warp_sample(w, wi, u);
+    }
     let ui = sbrdf_upper(wi);
     if (ui.w == 0.0) {
         return vec4<f32>(0.0);
@@ -1963,6 +1985,684 @@ fn sbrdf_sample(base: u32, wi: vec3<f32>, u_in: vec2<f32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     let pdf = sbrdf_smp_density(mx, sbrdf_smp_in(q, back.xyz));
+    if (!(pdf > 0.0 && sbrdf_finite(pdf))) {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(wo, pdf);
+}
+
+// ------------------------------------------------------------------ warped tables
+//
+// The model section of kind 2 (spec/GPU_LAYOUT.md, "Warped tables section"; spec/EVALUATION.md,
+// "Warped tables"): a material measured on the RGL database's warped grids, which answers every
+// query itself and samples itself. Offsets inside the section are relative to its first word.
+// The functions follow `src/decode/warped/query.rs` line for line, in f32: the half vector's
+// inverse VNDF warp blended between the two stored viewing directions around the query's, the
+// packed tables bilinear at the warped point, D/(4 sigma)/cos theta_i; sampling draws a warped
+// point from the tables' spectrum-averaged values, then the VNDF warp forward.
+
+const SBRDF_WARP_KIND: u32 = 2u;
+const SBRDF_WARP_POSITIVE_BITS: u32 = 9u; // a VNDF row's word: positive run below, marginal above
+const SBRDF_WARP_MARG_UNIT: f32 = 1.1920928955078125e-07; // 2^-23
+const SBRDF_WARP_MARKS: u32 = 3u; // conditional integrals kept per values row
+
+// The absolute word of the layout's warped-tables section, 0 when it has none.
+fn sbrdf_warp_section(base: u32) -> u32 {
+    let m = sbrdf_u(base + 19u);
+    if (m == 0u || sbrdf_u(base + m) != SBRDF_WARP_KIND) {
+        return 0u;
+    }
+    return base + m;
+}
+
+struct SbrdfWarpCol {
+    f: f32,
+    s: f32,
+    c: f32,
+    u: f32,
+    v: f32,
+}
+
+fn sbrdf_warp_col(w: u32, a: u32) -> SbrdfWarpCol {
+    let o = w + sbrdf_u(w + 9u) + 5u * a;
+    return SbrdfWarpCol(sbrdf_f(o), sbrdf_f(o + 1u), sbrdf_f(o + 2u), sbrdf_f(o + 3u),
+        sbrdf_f(o + 4u));
+}
+
+// A row of one stored incidence's VNDF (`vndf::Row`): alpha = sin theta cos phi_b, cos theta,
+// its run of positive columns, the incidence's normalisation and the row's normalised total.
+struct SbrdfWarpRow {
+    alpha: f32,
+    ct: f32,
+    positive: u32,
+    scale: f32,
+    total: f32,
+}
+
+fn sbrdf_warp_row(w: u32, i: u32, b: u32) -> SbrdfWarpRow {
+    let inc = w + sbrdf_u(w + 6u) + 6u * i;
+    let g = sbrdf_u(w + 4u);
+    let st = sbrdf_f(inc + 1u);
+    let ct = sbrdf_f(inc + 2u);
+    let scale = sbrdf_f(inc + 3u);
+    let alpha = st * sbrdf_f(w + sbrdf_u(w + 10u) + b);
+    let positive = sbrdf_u(w + sbrdf_u(w + 11u) + i * g + b)
+        & ((1u << SBRDF_WARP_POSITIVE_BITS) - 1u);
+    // The total from the run's last column (`vndf::row_total`).
+    var total = 0.0;
+    if (positive > 0u) {
+        let c = sbrdf_warp_col(w, positive - 1u);
+        total = alpha * c.u + ct * c.v;
+        if (positive < g) {
+            total = total + 0.5 / f32(g - 1u) * (c.f * max(0.0, alpha * c.s + ct * c.c));
+        }
+    }
+    return SbrdfWarpRow(alpha, ct, positive, scale, scale * total);
+}
+
+fn sbrdf_warp_row_density(r: SbrdfWarpRow, a: u32, c: SbrdfWarpCol) -> f32 {
+    if (a < r.positive) {
+        return r.scale * (c.f * max(0.0, r.alpha * c.s + r.ct * c.c));
+    }
+    return 0.0;
+}
+
+fn sbrdf_warp_row_cond(r: SbrdfWarpRow, a: u32, c: SbrdfWarpCol) -> f32 {
+    if (a < r.positive) {
+        return r.scale * (r.alpha * c.u + r.ct * c.v);
+    }
+    return r.total;
+}
+
+// The two stored incidences around theta (radians) and the upper one's weight.
+struct SbrdfWarpSlices {
+    a: u32,
+    b: u32,
+    t: f32,
+}
+
+fn sbrdf_warp_theta(w: u32, i: u32) -> f32 {
+    return sbrdf_f(w + sbrdf_u(w + 6u) + 6u * i);
+}
+
+fn sbrdf_warp_slices(w: u32, theta: f32) -> SbrdfWarpSlices {
+    let n = sbrdf_u(w + 1u);
+    if (n == 1u) {
+        return SbrdfWarpSlices(0u, 0u, 0.0);
+    }
+    let th = clamp(theta, sbrdf_warp_theta(w, 0u), sbrdf_warp_theta(w, n - 1u));
+    var i = 0u;
+    var hi = sbrdf_warp_theta(w, 1u);
+    for (var it = 0u; it < n; it = it + 1u) {
+        if (i + 2u >= n || hi > th) {
+            break;
+        }
+        i = i + 1u;
+        hi = sbrdf_warp_theta(w, i + 1u);
+    }
+    let lo = sbrdf_warp_theta(w, i);
+    return SbrdfWarpSlices(i, i + 1u, clamp((th - lo) / (hi - lo), 0.0, 1.0));
+}
+
+fn sbrdf_warp_mix(sl: SbrdfWarpSlices, x: f32, y: f32) -> f32 {
+    return x + (y - x) * sl.t;
+}
+
+// The cell of x in [0, 1] on n nodes: (index as bits, position within it).
+fn sbrdf_warp_cell(x: f32, n: u32) -> vec2<f32> {
+    let f = clamp(x, 0.0, 1.0) * f32(n - 1u);
+    let i = min(u32(f), n - 2u);
+    return vec2<f32>(bitcast<f32>(i), f - f32(i));
+}
+
+// The four VNDF rows a cell reads: rows b (lo) and b + 1 (hi) of slices a (0) and b (1).
+struct SbrdfWarpCellRows {
+    lo0: SbrdfWarpRow,
+    lo1: SbrdfWarpRow,
+    hi0: SbrdfWarpRow,
+    hi1: SbrdfWarpRow,
+}
+
+fn sbrdf_warp_cell_rows(w: u32, sl: SbrdfWarpSlices, b: u32) -> SbrdfWarpCellRows {
+    return SbrdfWarpCellRows(sbrdf_warp_row(w, sl.a, b), sbrdf_warp_row(w, sl.b, b),
+        sbrdf_warp_row(w, sl.a, b + 1u), sbrdf_warp_row(w, sl.b, b + 1u));
+}
+
+// Blended densities at column a of the lower and upper row.
+fn sbrdf_warp_densities(rows: SbrdfWarpCellRows, sl: SbrdfWarpSlices, a: u32,
+    c: SbrdfWarpCol) -> vec2<f32> {
+    return vec2<f32>(
+        sbrdf_warp_mix(sl, sbrdf_warp_row_density(rows.lo0, a, c),
+            sbrdf_warp_row_density(rows.lo1, a, c)),
+        sbrdf_warp_mix(sl, sbrdf_warp_row_density(rows.hi0, a, c),
+            sbrdf_warp_row_density(rows.hi1, a, c)));
+}
+
+// Blended conditional integrals at column a of the lower and upper row.
+fn sbrdf_warp_conds(rows: SbrdfWarpCellRows, sl: SbrdfWarpSlices, a: u32,
+    c: SbrdfWarpCol) -> vec2<f32> {
+    return vec2<f32>(
+        sbrdf_warp_mix(sl, sbrdf_warp_row_cond(rows.lo0, a, c), sbrdf_warp_row_cond(rows.lo1, a, c)),
+        sbrdf_warp_mix(sl, sbrdf_warp_row_cond(rows.hi0, a, c), sbrdf_warp_row_cond(rows.hi1, a, c)));
+}
+
+fn sbrdf_warp_totals(rows: SbrdfWarpCellRows, sl: SbrdfWarpSlices) -> vec2<f32> {
+    return vec2<f32>(sbrdf_warp_mix(sl, rows.lo0.total, rows.lo1.total),
+        sbrdf_warp_mix(sl, rows.hi0.total, rows.hi1.total));
+}
+
+fn sbrdf_warp_vndf_marg(w: u32, sl: SbrdfWarpSlices, b: u32) -> f32 {
+    let g = sbrdf_u(w + 4u);
+    let o = w + sbrdf_u(w + 11u);
+    let ma = f32(sbrdf_u(o + sl.a * g + b) >> SBRDF_WARP_POSITIVE_BITS) * SBRDF_WARP_MARG_UNIT;
+    let mb = f32(sbrdf_u(o + sl.b * g + b) >> SBRDF_WARP_POSITIVE_BITS) * SBRDF_WARP_MARG_UNIT;
+    return sbrdf_warp_mix(sl, ma, mb);
+}
+
+// The inverse VNDF warp of u (half-vector parameter) and the blended VNDF density there:
+// (sx, sy, density).
+fn sbrdf_warp_invert(w: u32, sl: SbrdfWarpSlices, ux: f32, uy: f32) -> vec3<f32> {
+    let g = sbrdf_u(w + 4u);
+    let n1 = f32(g - 1u);
+    let ca = sbrdf_warp_cell(ux, g);
+    let cb = sbrdf_warp_cell(uy, g);
+    let a = bitcast<u32>(ca.x);
+    let b = bitcast<u32>(cb.x);
+    let tx = ca.y;
+    let ty = cb.y;
+    let rows = sbrdf_warp_cell_rows(w, sl, b);
+    let col0 = sbrdf_warp_col(w, a);
+    let col1 = sbrdf_warp_col(w, a + 1u);
+    let d0 = sbrdf_warp_densities(rows, sl, a, col0);
+    let d1 = sbrdf_warp_densities(rows, sl, a + 1u, col1);
+    let c0 = mix(d0.x, d0.y, ty);
+    let c1 = mix(d1.x, d1.y, ty);
+    let bc = sbrdf_warp_conds(rows, sl, a, col0);
+    let before = mix(bc.x, bc.y, ty);
+    let within = tx * (c0 + 0.5 * (c1 - c0) * tx) / n1;
+    let r = sbrdf_warp_totals(rows, sl);
+    let total = mix(r.x, r.y, ty);
+    var sx = 0.0;
+    if (total > 0.0) {
+        sx = (before + within) / total;
+    }
+    let sy = sbrdf_warp_vndf_marg(w, sl, b) + ty * (r.x + 0.5 * (r.y - r.x) * ty) / n1;
+    return vec3<f32>(clamp(sx, 0.0, 1.0), clamp(sy, 0.0, 1.0), mix(c0, c1, tx));
+}
+
+// tau in [0, 1] with the integral over [0, tau] of mix(v0, v1, t) dt = a.
+fn sbrdf_warp_segment(a_in: f32, v0: f32, v1: f32) -> f32 {
+    let a = max(a_in, 0.0);
+    let disc = max(v0 * v0 + 2.0 * a * (v1 - v0), 0.0);
+    let den = v0 + sqrt(disc);
+    if (den > 0.0) {
+        return clamp(2.0 * a / den, 0.0, 1.0);
+    }
+    return 0.0;
+}
+
+// The forward VNDF warp: a uniform point (sx, sy) -> u. The row by bisection on the blended
+// marginal, the column by bisection on the blended conditional integral.
+fn sbrdf_warp_vndf_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32) -> vec2<f32> {
+    let g = sbrdf_u(w + 4u);
+    let n1 = f32(g - 1u);
+    let sx = clamp(sx_in, 0.0, 1.0);
+    let sy = clamp(sy_in, 0.0, 1.0);
+    var lo = 0u;
+    var hi = g - 1u;
+    for (var it = 0u; it < 32u; it = it + 1u) {
+        if (lo + 1u >= hi) {
+            break;
+        }
+        let mid = (lo + hi) >> 1u;
+        if (sbrdf_warp_vndf_marg(w, sl, mid) < sy) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let b = min(hi - 1u, g - 2u);
+    let rows = sbrdf_warp_cell_rows(w, sl, b);
+    let r = sbrdf_warp_totals(rows, sl);
+    let ty = sbrdf_warp_segment((sy - sbrdf_warp_vndf_marg(w, sl, b)) * n1, r.x, r.y);
+    let target = sx * mix(r.x, r.y, ty);
+    lo = 0u;
+    hi = g - 1u;
+    for (var it = 0u; it < 32u; it = it + 1u) {
+        if (lo + 1u >= hi) {
+            break;
+        }
+        let mid = (lo + hi) >> 1u;
+        let cm = sbrdf_warp_conds(rows, sl, mid, sbrdf_warp_col(w, mid));
+        if (mix(cm.x, cm.y, ty) < target) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let a = min(hi - 1u, g - 2u);
+    let col0 = sbrdf_warp_col(w, a);
+    let d0 = sbrdf_warp_densities(rows, sl, a, col0);
+    let d1 = sbrdf_warp_densities(rows, sl, a + 1u, sbrdf_warp_col(w, a + 1u));
+    let ca = sbrdf_warp_conds(rows, sl, a, col0);
+    let tx = sbrdf_warp_segment((target - mix(ca.x, ca.y, ty)) * n1, mix(d0.x, d0.y, ty),
+        mix(d1.x, d1.y, ty));
+    return vec2<f32>((f32(a) + tx) / n1, (f32(b) + ty) / n1);
+}
+
+// Code j of a packed table (bits per code, codes from absolute word o, least bit first).
+fn sbrdf_warp_code(o: u32, bits: u32, j: u32) -> u32 {
+    if (bits == 0u) {
+        return 0u;
+    }
+    let bit = j * bits;
+    let wd = o + (bit >> 5u);
+    let sh = bit & 31u;
+    var v = sbrdf_words[wd] >> sh;
+    if (sh + bits > 32u) {
+        v = v | (sbrdf_words[wd + 1u] << (32u - sh));
+    }
+    return v & ((1u << bits) - 1u);
+}
+
+// Table t = i K + k at node j: lo + code step.
+fn sbrdf_warp_table(w: u32, t: u32, j: u32) -> f32 {
+    let e = w + sbrdf_u(w + 12u) + 4u * t;
+    return sbrdf_f(e + 2u) + f32(sbrdf_warp_code(w + sbrdf_u(e), sbrdf_u(e + 1u), j))
+        * sbrdf_f(e + 3u);
+}
+
+// A table bilinear in the cell whose lower row starts at node n00 (upper at n10).
+fn sbrdf_warp_table_bilerp(w: u32, t: u32, n00: u32, n10: u32, tx: f32, ty: f32) -> f32 {
+    let e = w + sbrdf_u(w + 12u) + 4u * t;
+    let o = w + sbrdf_u(e);
+    let bits = sbrdf_u(e + 1u);
+    let lo = sbrdf_f(e + 2u);
+    let step = sbrdf_f(e + 3u);
+    let v00 = lo + f32(sbrdf_warp_code(o, bits, n00)) * step;
+    let v01 = lo + f32(sbrdf_warp_code(o, bits, n00 + 1u)) * step;
+    let v10 = lo + f32(sbrdf_warp_code(o, bits, n10)) * step;
+    let v11 = lo + f32(sbrdf_warp_code(o, bits, n10 + 1u)) * step;
+    return mix(mix(v00, v01, tx), mix(v10, v11, tx), ty);
+}
+
+// The tables' frame for a query: turned about z so that the tables' own direction d (the
+// viewer's for evaluation, the given one for sampling) has azimuth 0. (cos, sin) of the turn
+// in .xy, d's theta (radians) in .z.
+fn sbrdf_warp_frame(d: vec3<f32>) -> vec3<f32> {
+    let r = sqrt(d.x * d.x + d.y * d.y);
+    var c = 1.0;
+    var s = 0.0;
+    if (r > 0.0) {
+        c = d.x / r;
+        s = d.y / r;
+    }
+    return vec3<f32>(c, s, sbrdf_atan2_deg(r, d.z) * SBRDF_DEG);
+}
+
+fn sbrdf_warp_in(f: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(f.x * v.x + f.y * v.y, -f.y * v.x + f.x * v.y, v.z);
+}
+
+fn sbrdf_warp_out(f: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(f.x * v.x - f.y * v.y, f.y * v.x + f.x * v.y, v.z);
+}
+
+// The half-vector parameter u of unit m, and sin theta_m: (ux, uy, sin theta_m).
+fn sbrdf_warp_half(m: vec3<f32>) -> vec3<f32> {
+    let sin_m = sqrt(m.x * m.x + m.y * m.y);
+    let ux = sqrt(sbrdf_atan2_deg(sin_m, m.z) / 90.0);
+    var uy = (sbrdf_atan2_deg(m.y, m.x) + 180.0) / 360.0;
+    if (uy >= 1.0) {
+        uy = uy - 1.0;
+    }
+    return vec3<f32>(ux, uy, sin_m);
+}
+
+// f32 lerp of M nodes at j/(M-1), at x in [0, 1] (clamped), from absolute word o.
+fn sbrdf_warp_nodes(o: u32, m: u32, x: f32) -> f32 {
+    let f = clamp(x, 0.0, 1.0) * f32(m - 1u);
+    let i = min(u32(f), m - 2u);
+    let a = sbrdf_f(o + i);
+    return a + (sbrdf_f(o + i + 1u) - a) * (f - f32(i));
+}
+
+// What a query reads of the tables: the slices, the tables' cell and the factor
+// D(u_x) / (4 sigma) / cos theta_i (f = 0: rho is 0).
+struct SbrdfWarpQuery {
+    sl: SbrdfWarpSlices,
+    n00: u32,
+    n10: u32,
+    tx: f32,
+    ty: f32,
+    f: f32,
+}
+
+fn sbrdf_warp_query(w: u32, wi: vec3<f32>, wo: vec3<f32>) -> SbrdfWarpQuery {
+    var q: SbrdfWarpQuery;
+    q.f = 0.0;
+    let ui = sbrdf_upper(wi);
+    let uo = sbrdf_upper(wo);
+    if (ui.w == 0.0 || uo.w == 0.0) {
+        return q;
+    }
+    // The tables follow the viewer's direction (the query's wo): the roles are exchanged.
+    let fr = sbrdf_warp_frame(uo.xyz);
+    let a = vec3<f32>(sqrt(uo.x * uo.x + uo.y * uo.y), 0.0, uo.z);
+    let b = sbrdf_warp_in(fr, ui.xyz);
+    if (b.z <= 0.0) {
+        return q;
+    }
+    let h = a + b;
+    let len = length(h);
+    if (!(len > 0.0)) {
+        return q;
+    }
+    let u = sbrdf_warp_half(h / len);
+    q.sl = sbrdf_warp_slices(w, fr.z);
+    let s = sbrdf_warp_invert(w, q.sl, u.x, u.y);
+    let m = sbrdf_u(w + 5u);
+    let sigma = sbrdf_warp_nodes(w + sbrdf_u(w + 8u), m, sqrt(max(fr.z, 0.0) / (0.5 * SBRDF_PI)));
+    let d = sbrdf_warp_nodes(w + sbrdf_u(w + 7u), m, u.x);
+    q.f = d / (4.0 * sigma) / b.z;
+    let r = sbrdf_u(w + 3u);
+    let cx = sbrdf_warp_cell(s.x, r);
+    let cy = sbrdf_warp_cell(s.y, r);
+    q.n00 = bitcast<u32>(cy.x) * r + bitcast<u32>(cx.x);
+    q.n10 = q.n00 + r;
+    q.tx = cx.y;
+    q.ty = cy.y;
+    return q;
+}
+
+// Term k's blended table value times the query's factor.
+fn sbrdf_warp_term(w: u32, q: SbrdfWarpQuery, k: u32) -> f32 {
+    let nk = sbrdf_u(w + 2u);
+    let va = sbrdf_warp_table_bilerp(w, q.sl.a * nk + k, q.n00, q.n10, q.tx, q.ty);
+    let vb = sbrdf_warp_table_bilerp(w, q.sl.b * nk + k, q.n00, q.n10, q.tx, q.ty);
+    return (va + (vb - va) * q.sl.t) * q.f;
+}
+
+// B_k at four wavelengths ("Spectral basis"; a non-finite wavelength gives NaN, which the caller
+// turns into 0).
+fn sbrdf_warp_basis4(base: u32, k: u32, lambda: vec4<f32>) -> vec4<f32> {
+    let basis = sbrdf_u(base + 4u);
+    var out = vec4<f32>(0.0);
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        let l = lambda[i];
+        if (basis == 3u) {
+            let nw = sbrdf_u(base + 7u);
+            let ow = base + sbrdf_u(base + 13u);
+            let tab = base + sbrdf_u(base + 14u) + k * nw;
+            var j = 0u;
+            var f = 0.0;
+            if (nw > 1u && l > sbrdf_f(ow)) {
+                let bw = sbrdf_bracket(ow, nw, l);
+                j = bitcast<u32>(bw.x);
+                f = bw.y;
+            }
+            var bk = sbrdf_f(tab + j);
+            if (f != 0.0) {
+                bk = bk + f * (sbrdf_f(tab + j + 1u) - bk);
+            }
+            out[i] = bk;
+        } else {
+            let lo = sbrdf_f(base + 11u);
+            let hi = sbrdf_f(base + 12u);
+            var u = 0.0;
+            if (hi > lo) {
+                u = clamp((clamp(l, lo, hi) - lo) / (hi - lo), 0.0, 1.0);
+            }
+            if (basis == 1u) {
+                if (k == 0u) {
+                    out[i] = 0.5;
+                } else {
+                    let cs = sbrdf_sincos_turns(sbrdf_frac_mul(f32((k + 1u) / 2u), u));
+                    out[i] = select(cs.x, cs.y, (k & 1u) == 1u);
+                }
+            } else {
+                out[i] = sbrdf_sincos_turns(sbrdf_frac_mul(f32(k), 0.5 * u)).y;
+            }
+        }
+    }
+    return out;
+}
+
+// rho at four wavelengths (each clamped at 0; a non-finite one 0) for a query.
+fn sbrdf_warp_rho4(base: u32, w: u32, q: SbrdfWarpQuery, lambda: vec4<f32>) -> vec4<f32> {
+    if (q.f == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    var v = vec4<f32>(0.0);
+    let nk = sbrdf_u(w + 2u);
+    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+        if (k >= nk) {
+            break;
+        }
+        v = v + sbrdf_warp_term(w, q, k) * sbrdf_warp_basis4(base, k, lambda);
+    }
+    var out = max(v, vec4<f32>(0.0));
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        if (!sbrdf_finite(lambda[i])) {
+            out[i] = 0.0;
+        }
+    }
+    return out;
+}
+
+fn sbrdf_warp_eval4(base: u32, w: u32, wi: vec3<f32>, wo: vec3<f32>, l: vec4<f32>) -> vec4<f32> {
+    return sbrdf_warp_rho4(base, w, sbrdf_warp_query(w, wi, wo), l);
+}
+
+fn sbrdf_warp_eval_rgb(base: u32, w: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let q = sbrdf_warp_query(w, wi, wo);
+    if (q.f == 0.0) {
+        return vec3<f32>(0.0);
+    }
+    var rgb = vec3<f32>(0.0);
+    // 81 wavelengths, four at a time (the last group holds one).
+    for (var g = 0u; g < 21u; g = g + 1u) {
+        let i0 = 4u * g;
+        let l = 380.0 + 5.0 * vec4<f32>(f32(i0), f32(i0 + 1u), f32(i0 + 2u), f32(i0 + 3u));
+        let s = sbrdf_warp_rho4(base, w, q, l);
+        for (var j = 0u; j < 4u; j = j + 1u) {
+            if (i0 + j < 81u) {
+                rgb = rgb + s[j] * SBRDF_RGB_WEIGHTS[i0 + j];
+            }
+        }
+    }
+    return rgb;
+}
+
+// The values' density of stored incidence i at node j (normalised): the spectrum-averaged table
+// values clamped at 0, plus the incidence's floor.
+fn sbrdf_warp_values_at(w: u32, i: u32, j: u32) -> f32 {
+    let nk = sbrdf_u(w + 2u);
+    let means = w + sbrdf_u(w + 14u);
+    var v = 0.0;
+    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+        if (k >= nk) {
+            break;
+        }
+        v = v + sbrdf_warp_table(w, i * nk + k, j) * sbrdf_f(means + k);
+    }
+    let inc = w + sbrdf_u(w + 6u) + 6u * i;
+    return sbrdf_f(inc + 4u) * (max(v, 0.0) + sbrdf_f(inc + 5u));
+}
+
+fn sbrdf_warp_values_density(w: u32, sl: SbrdfWarpSlices, x: f32, y: f32) -> f32 {
+    let r = sbrdf_u(w + 3u);
+    let cx = sbrdf_warp_cell(x, r);
+    let cy = sbrdf_warp_cell(y, r);
+    let n00 = bitcast<u32>(cy.x) * r + bitcast<u32>(cx.x);
+    let n10 = n00 + r;
+    let v00 = sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, n00), sbrdf_warp_values_at(w, sl.b, n00));
+    let v01 = sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, n00 + 1u),
+        sbrdf_warp_values_at(w, sl.b, n00 + 1u));
+    let v10 = sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, n10), sbrdf_warp_values_at(w, sl.b, n10));
+    let v11 = sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, n10 + 1u),
+        sbrdf_warp_values_at(w, sl.b, n10 + 1u));
+    return mix(mix(v00, v01, cx.y), mix(v10, v11, cx.y), cy.y);
+}
+
+// Word j of values row (i, b): 0 total, 1 marginal, 2.. the marks' conditional integrals.
+fn sbrdf_warp_values_row(w: u32, i: u32, b: u32, j: u32) -> f32 {
+    let r = sbrdf_u(w + 3u);
+    return sbrdf_f(w + sbrdf_u(w + 13u) + (2u + SBRDF_WARP_MARKS) * (i * r + b) + j);
+}
+
+// The blended values' density at column a of rows b and b + 1, blended by ty.
+fn sbrdf_warp_values_col(w: u32, sl: SbrdfWarpSlices, b: u32, a: u32, ty: f32) -> f32 {
+    let r = sbrdf_u(w + 3u);
+    let lo = b * r + a;
+    let hi = lo + r;
+    return mix(sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, lo), sbrdf_warp_values_at(w, sl.b, lo)),
+        sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, hi), sbrdf_warp_values_at(w, sl.b, hi)), ty);
+}
+
+// The forward warp of the values' density: a uniform point -> a warped point (the row by its
+// stored marginal, the column from the last kept mark below the target, walking the row).
+fn sbrdf_warp_values_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32) -> vec2<f32> {
+    let r = sbrdf_u(w + 3u);
+    let n1 = f32(r - 1u);
+    let sx = clamp(sx_in, 0.0, 1.0);
+    let sy = clamp(sy_in, 0.0, 1.0);
+    var lo = 0u;
+    var hi = r - 1u;
+    for (var it = 0u; it < 32u; it = it + 1u) {
+        if (lo + 1u >= hi) {
+            break;
+        }
+        let mid = (lo + hi) >> 1u;
+        let m = sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, mid, 1u),
+            sbrdf_warp_values_row(w, sl.b, mid, 1u));
+        if (m < sy) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let b = min(hi - 1u, r - 2u);
+    let mb = sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b, 1u),
+        sbrdf_warp_values_row(w, sl.b, b, 1u));
+    let r0 = sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b, 0u),
+        sbrdf_warp_values_row(w, sl.b, b, 0u));
+    let r1 = sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b + 1u, 0u),
+        sbrdf_warp_values_row(w, sl.b, b + 1u, 0u));
+    let ty = sbrdf_warp_segment((sy - mb) * n1, r0, r1);
+    let target = sx * mix(r0, r1, ty);
+    var a = 0u;
+    var before = 0.0;
+    for (var j = 0u; j < SBRDF_WARP_MARKS; j = j + 1u) {
+        let m = mix(sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b, 2u + j),
+            sbrdf_warp_values_row(w, sl.b, b, 2u + j)),
+            sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b + 1u, 2u + j),
+            sbrdf_warp_values_row(w, sl.b, b + 1u, 2u + j)), ty);
+        if (m >= target) {
+            break;
+        }
+        a = (j + 1u) * (r - 1u) / (SBRDF_WARP_MARKS + 1u);
+        before = m;
+    }
+    let half = 0.5 / n1;
+    var c0 = sbrdf_warp_values_col(w, sl, b, a, ty);
+    var c1 = sbrdf_warp_values_col(w, sl, b, a + 1u, ty);
+    for (var it = 0u; it < r; it = it + 1u) {
+        if (a + 2u >= r) {
+            break;
+        }
+        let next = before + half * (c0 + c1);
+        if (next >= target) {
+            break;
+        }
+        a = a + 1u;
+        before = next;
+        c0 = c1;
+        c1 = sbrdf_warp_values_col(w, sl, b, a + 1u, ty);
+    }
+    let tx = sbrdf_warp_segment((target - before) * n1, c0, c1);
+    return vec2<f32>((f32(a) + tx) / n1, (f32(b) + ty) / n1);
+}
+
+// The density over wo (the tables' frame) of reflecting wi about a half vector drawn from the
+// blended warps (0 where m is below the horizon or faces away from wo).
+fn sbrdf_warp_reflected(w: u32, sl: SbrdfWarpSlices, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let h = wi + wo;
+    let len = length(h);
+    if (!(len > 0.0) || h.z < 0.0) {
+        return 0.0;
+    }
+    let m = h / len;
+    let u = sbrdf_warp_half(m);
+    let jac = u.z * SBRDF_PI * u.x * 2.0 * SBRDF_PI;
+    let d = dot(wo, m);
+    if (!(jac > 0.0 && d > 0.0)) {
+        return 0.0;
+    }
+    let s = sbrdf_warp_invert(w, sl, u.x, u.y);
+    return sbrdf_warp_values_density(w, sl, s.x, s.y) * s.z / jac / (4.0 * d);
+}
+
+// The density with which sbrdf_warp_sample draws unit wo for unit wi (both above the horizon):
+// the cosine share plus the tables' share at wo and at its mirror image.
+fn sbrdf_warp_pdf_unit(w: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let fr = sbrdf_warp_frame(wi);
+    let a = vec3<f32>(sqrt(wi.x * wi.x + wi.y * wi.y), 0.0, wi.z);
+    let b = sbrdf_warp_in(fr, wo);
+    if (b.z <= 0.0) {
+        return 0.0;
+    }
+    let sl = sbrdf_warp_slices(w, fr.z);
+    let tables = sbrdf_warp_reflected(w, sl, a, b)
+        + sbrdf_warp_reflected(w, sl, a, vec3<f32>(b.x, b.y, -b.z));
+    return SBRDF_MIN_COSINE_WEIGHT * b.z / SBRDF_PI + (1.0 - SBRDF_MIN_COSINE_WEIGHT) * tables;
+}
+
+fn sbrdf_warp_pdf(w: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let ui = sbrdf_upper(wi);
+    let uo = sbrdf_upper(wo);
+    if (ui.w == 0.0 || uo.w == 0.0) {
+        return 0.0;
+    }
+    return sbrdf_warp_pdf_unit(w, ui.xyz, uo.xyz);
+}
+
+// A direction drawn for wi from u (already clamped to [0, 1)^2): (wo, pdf), vec4(0) for none.
+fn sbrdf_warp_sample(w: u32, wi: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
+    let ui = sbrdf_upper(wi);
+    if (ui.w == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let fr = sbrdf_warp_frame(ui.xyz);
+    let a = vec3<f32>(sqrt(ui.x * ui.x + ui.y * ui.y), 0.0, ui.z);
+    var local: vec3<f32>;
+    if (u.x < SBRDF_MIN_COSINE_WEIGHT) {
+        let u0 = u.x / SBRDF_MIN_COSINE_WEIGHT;
+        let rad = sqrt(u0);
+        let cs = sbrdf_sincos_turns(u.y);
+        local = vec3<f32>(rad * cs.y, rad * cs.x, sqrt(max(1.0 - u0, 0.0)));
+    } else {
+        let u0 = min((u.x - SBRDF_MIN_COSINE_WEIGHT) / (1.0 - SBRDF_MIN_COSINE_WEIGHT), 1.0);
+        let sl = sbrdf_warp_slices(w, fr.z);
+        let s = sbrdf_warp_values_sample(w, sl, u0, u.y);
+        let uv = sbrdf_warp_vndf_sample(w, sl, s.x, s.y);
+        // The half vector of u: theta_m = ux^2 pi/2, phi_m = 2 pi uy - pi (uy - 1/2 turns).
+        let st = sbrdf_sincos_deg(uv.x * uv.x * 90.0);
+        let sp = sbrdf_sincos_turns(uv.y - 0.5);
+        let m = vec3<f32>(st.x * sp.y, st.x * sp.x, st.y);
+        let d = 2.0 * (a.x * m.x + a.z * m.z);
+        local = vec3<f32>(d * m.x - a.x, d * m.y, d * m.z - a.z);
+    }
+    local.z = abs(local.z);
+    if (!(local.z > 0.0)) {
+        return vec4<f32>(0.0);
+    }
+    let wo = sbrdf_warp_out(fr, local);
+    let back = sbrdf_upper(wo);
+    if (back.w == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let pdf = sbrdf_warp_pdf_unit(w, ui.xyz, back.xyz);
     if (!(pdf > 0.0 && sbrdf_finite(pdf))) {
         return vec4<f32>(0.0);
     }

@@ -1175,6 +1175,16 @@ class SbrdfFile:
             return zero
         if not (0 <= theta_i <= 90 and 0 <= theta_o <= 90):  # steps 1 and 2
             return zero
+        if getattr(self, "warp_layout", None) is not None:  # a layout's warped tables
+            c = self.warp_layout.coefficients(d(theta_i, phi_i - phi_o), d(theta_o, 0.0))
+            out = []
+            for lam in wavelengths:
+                if c is None or not math.isfinite(lam):
+                    out.append(0.0)
+                    continue
+                b = self.basis_at(lam, self.k)
+                out.append(max(0.0, sum(ck * bk for ck, bk in zip(c, b))))
+            return out
         if self.warp is not None:  # a file with WARP: "Warped tables" alone (§3.10)
             # "Whose direction the tables follow": the tables are indexed by the viewing
             # direction, so steps 1–3 and the Value are applied with the roles exchanged: the
@@ -1392,11 +1402,12 @@ GPU_LAYOUT_MAGIC = 0x4C474253  # the bytes "SBGL"
 
 
 def layout_material(data, base=0):
-    """A material read from a flat device layout (spec/GPU_LAYOUT.md, version 1 to 3): `data` is the
+    """A material read from a flat device layout (spec/GPU_LAYOUT.md, version 1 to 4): `data` is the
     layout buffer's bytes (32-bit little-endian words, several materials possibly concatenated),
     `base` the word offset where this material's layout starts. Only the layout's words are
-    read; the result evaluates with the same rules as a file (`.eval`). Raises Refused when the
-    words are not a version 1 to 3 layout or an offset points outside it."""
+    read; the result evaluates with the same rules as a file (`.eval`), warped tables (version 4)
+    from the section's packed values. Raises Refused when the words are not a version 1 to 4
+    layout or an offset points outside it."""
     nwords = len(data) // 4
 
     def words(off, count, fmt="I"):
@@ -1410,8 +1421,8 @@ def layout_material(data, base=0):
     # Version 2 adds the sampling section (header word 18, GPU_LAYOUT.md "Sampling section"),
     # which this reader, an evaluator, ignores; version 3 the model section (word 19, read
     # below); the rest is version 1's.
-    if head[1] not in (1, 2, 3):
-        raise unsupported("layout: version %d, this reader knows 1 to 3" % head[1])
+    if head[1] not in (1, 2, 3, 4):
+        raise unsupported("layout: version %d, this reader knows 1 to 4" % head[1])
     (total, inc_layout, basis, k, level, w, n, t, p) = head[2:11]
     lmin, lmax = struct.unpack("<2f", struct.pack("<2I", head[11], head[12]))
     off_waves, off_table, off_thetas, off_phis, off_recs = head[13:18]
@@ -1464,9 +1475,170 @@ def layout_material(data, base=0):
             r.lobes.append((kind, rows, words(off_par, n_par, "f")))
         m.records.append(r)
     m.incidences = [(r.theta_i, r.phi_i) for r in m.records]
+    m.warp_layout = None
     if head[1] >= 3 and head[19] != 0:
-        m.fact, m.fact_ranges = layout_factor_model(words, values, head[19], w)
+        # Version 4 adds kind 2, the warped tables, which answer every query.
+        if head[1] >= 4 and words(head[19], 1)[0] == 2:
+            m.warp_layout = LayoutWarp(words, head[19])
+        else:
+            m.fact, m.fact_ranges = layout_factor_model(words, values, head[19], w)
     return m
+
+
+class LayoutWarp:
+    """The warped-tables section of a flat device layout (GPU_LAYOUT.md, "Warped tables
+    section", model section kind 2), evaluated as that section says: EVALUATION.md's "Warped
+    tables" with the tables' packed values and the section's VNDF rows, columns and σ nodes in
+    place of their binary64 definitions. Reads only the section's words."""
+
+    def __init__(self, words, at):
+        head = words(at, 16)
+        if head[0] != 2:
+            raise unsupported("layout: model section kind %d" % head[0])
+        self.n, self.k, self.r, self.g, self.m = head[1:6]
+        (o_inc, o_ndf, o_sig, o_col, o_cos, o_rows, o_tab, o_val, o_mean) = head[6:15]
+        n, k, r, g, m = self.n, self.k, self.r, self.g, self.m
+        if not (n >= 1 and k >= 1 and 2 <= r <= 64 and 3 <= g <= 256 and m >= 2):
+            raise malformed("layout: warped tables of N %d, K %d, R %d, G %d, M %d"
+                            % (n, k, r, g, m))
+
+        def fs(off, count):
+            return words(at + off, count, "f")
+
+        inc = fs(o_inc, 6 * n)
+        self.incidences = [inc[6 * i:6 * i + 6] for i in range(n)]  # θ, sin, cos, 1/I, scale, floor
+        self.ndf = fs(o_ndf, m)
+        self.sigma = fs(o_sig, m)
+        col = fs(o_col, 5 * g)
+        self.columns = [col[5 * a:5 * a + 5] for a in range(g)]  # f, sin θm, cos θm, U, V
+        self.cos_phi = fs(o_cos, g)
+        rows = words(at + o_rows, n * g)
+        # A VNDF row: positive run in the low 9 bits, the marginal in 2^-23 units above.
+        self.vndf_rows = [((v >> 9) * 2.0 ** -23, v & 511) for v in rows]
+        self.tables = []
+        for t in range(n * k):
+            off, bits, lo_bits, step_bits = words(at + o_tab + 4 * t, 4)
+            lo, step = struct.unpack("<2f", struct.pack("<2I", lo_bits, step_bits))
+            count = (r * r * bits + 31) // 32
+            packed = words(at + off, count) if count else []
+            big = sum(w << (32 * i) for i, w in enumerate(packed))
+            mask = (1 << bits) - 1
+            self.tables.append([lo + ((big >> (j * bits)) & mask) * step for j in range(r * r)])
+        val = fs(o_val, 5 * n * r)
+        self.values_rows = [val[5 * j:5 * j + 5] for j in range(n * r)]  # total, marg, marks
+        self.means = fs(o_mean, k)
+
+    # -- the formulas of "Warped tables" over the section's quantities (src/decode/warped/query.rs)
+
+    def slices(self, theta):
+        ths = [inc[0] for inc in self.incidences]
+        if self.n == 1:
+            return 0, 0, 0.0
+        th = min(max(theta, ths[0]), ths[-1])
+        i = 0
+        while i + 2 < self.n and ths[i + 1] <= th:
+            i += 1
+        return i, i + 1, min(max((th - ths[i]) / (ths[i + 1] - ths[i]), 0.0), 1.0)
+
+    def row(self, i, b):
+        """Row b of incidence i: (α, cos θ, positive run, 1/I, normalised total)."""
+        _, sin_t, cos_t, scale, _, _ = self.incidences[i]
+        alpha = sin_t * self.cos_phi[b]
+        positive = self.vndf_rows[i * self.g + b][1]
+        total = 0.0
+        if positive > 0:
+            f, st, ct, u, v = self.columns[positive - 1]
+            total = alpha * u + cos_t * v
+            if positive < self.g:
+                total += 0.5 / (self.g - 1) * (f * max(0.0, alpha * st + cos_t * ct))
+        return alpha, cos_t, positive, scale, scale * total
+
+    def density(self, row, a):
+        alpha, cos_t, positive, scale, _ = row
+        if a >= positive:
+            return 0.0
+        f, st, ct, _, _ = self.columns[a]
+        return scale * (f * max(0.0, alpha * st + cos_t * ct))
+
+    def cond(self, row, a):
+        alpha, cos_t, positive, scale, total = row
+        if a >= positive:
+            return total
+        _, _, _, u, v = self.columns[a]
+        return scale * (alpha * u + cos_t * v)
+
+    @staticmethod
+    def cell(x, n):
+        f = min(max(x, 0.0), 1.0) * (n - 1)
+        i = min(int(f), n - 2)
+        return i, f - i
+
+    def invert(self, sl, ux, uy):
+        """The inverse VNDF warp of u and the blended density there: (sx, sy, p)."""
+        ia, ib, t = sl
+
+        def mix(x, y):
+            return x + (y - x) * t
+
+        def lerp(x, y, f):
+            return x + (y - x) * f
+
+        n1 = self.g - 1
+        a, tx = self.cell(ux, self.g)
+        b, ty = self.cell(uy, self.g)
+        lo = (self.row(ia, b), self.row(ib, b))
+        hi = (self.row(ia, b + 1), self.row(ib, b + 1))
+
+        def both(fn, x):
+            return (mix(fn(lo[0], x), fn(lo[1], x)), mix(fn(hi[0], x), fn(hi[1], x)))
+
+        d0, d1 = both(self.density, a), both(self.density, a + 1)
+        c0, c1 = lerp(d0[0], d0[1], ty), lerp(d1[0], d1[1], ty)
+        b0, b1 = both(self.cond, a)
+        before = lerp(b0, b1, ty)
+        within = tx * (c0 + 0.5 * (c1 - c0) * tx) / n1
+        r0, r1 = mix(lo[0][4], lo[1][4]), mix(hi[0][4], hi[1][4])
+        total = lerp(r0, r1, ty)
+        sx = (before + within) / total if total > 0 else 0.0
+        marg = mix(self.vndf_rows[ia * self.g + b][0], self.vndf_rows[ib * self.g + b][0])
+        sy = marg + ty * (r0 + 0.5 * (r1 - r0) * ty) / n1
+        return min(max(sx, 0.0), 1.0), min(max(sy, 0.0), 1.0), lerp(c0, c1, tx)
+
+    @staticmethod
+    def nodes(values, x):
+        f = min(max(x, 0.0), 1.0) * (len(values) - 1)
+        i = min(int(f), len(values) - 2)
+        return values[i] + (values[i + 1] - values[i]) * (f - i)
+
+    def coefficients(self, wi, wo):
+        """The K coefficients of ρ for unit wi (toward the light), wo (toward the viewer), z ≥ 0,
+        the tables following wo ("Whose direction the tables follow"); None where ρ is 0."""
+        r = math.sqrt(wo[0] * wo[0] + wo[1] * wo[1])
+        c, s = (wo[0] / r, wo[1] / r) if r > 0 else (1.0, 0.0)
+        theta = math.atan2(r, wo[2])
+        a = (r, 0.0, wo[2])
+        b = (c * wi[0] + s * wi[1], -s * wi[0] + c * wi[1], wi[2])
+        if b[2] <= 0:
+            return None
+        h = (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+        hn = math.sqrt(dot(h, h))
+        if not hn > 0:
+            return None
+        m = (h[0] / hn, h[1] / hn, h[2] / hn)
+        ux = math.sqrt(math.atan2(math.sqrt(m[0] * m[0] + m[1] * m[1]), m[2]) / (math.pi / 2))
+        uy = (math.atan2(m[1], m[0]) + math.pi) / (2 * math.pi)
+        uy -= math.floor(uy)
+        sl = self.slices(theta)
+        sx, sy, _ = self.invert(sl, ux, uy)
+        sigma = self.nodes(self.sigma, math.sqrt(max(theta, 0.0) / (math.pi / 2)))
+        f = self.nodes(self.ndf, ux) / (4 * sigma) / b[2]
+        ia, ib, t = sl
+        out = []
+        for k in range(self.k):
+            va = table_bilinear(self.tables[ia * self.k + k], self.r, sx, sy)
+            vb = table_bilinear(self.tables[ib * self.k + k], self.r, sx, sy)
+            out.append((va + (vb - va) * t) * f)
+        return out
 
 
 def layout_factor_model(words, values, at, w):
@@ -1516,8 +1688,8 @@ def layout_sampling_weights(data, base=0):
         return list(struct.unpack_from("<%d%s" % (count, fmt), data, 4 * (base + off)))
 
     head = words(0, 20)
-    if head[0] != GPU_LAYOUT_MAGIC or head[1] not in (1, 2, 3):
-        raise malformed("layout: not a version 1 to 3 layout")
+    if head[0] != GPU_LAYOUT_MAGIC or head[1] not in (1, 2, 3, 4):
+        raise malformed("layout: not a version 1 to 4 layout")
     s, n, off_recs = head[18], head[8], head[17]
     if s == 0:
         return None

@@ -418,14 +418,24 @@ fn c_gpu_layout_is_the_decoders_and_checks_its_buffer() {
             SBRDF_ERR_NULL
         );
         sbrdf_close(b);
-        // A file the layout does not cover: refused, no size.
+        // Warped tables (layout version 4): the decoder's own words too.
         let warp = open("rgl_paper_warp_v14.sbrdf");
+        let want = sbrdf::Decoder::open(golden("rgl_paper_warp_v14.sbrdf"))
+            .unwrap()
+            .gpu_layout()
+            .unwrap();
         let mut count = 7usize;
         assert_eq!(
             sbrdf_gpu_layout(warp, std::ptr::null_mut(), 0, &mut count),
-            SBRDF_ERR_ARGUMENT
+            SBRDF_OK
         );
-        assert_eq!(count, 0);
+        assert_eq!(count, want.len());
+        let mut words = vec![0u32; count];
+        assert_eq!(
+            sbrdf_gpu_layout(warp, words.as_mut_ptr(), count, &mut count),
+            SBRDF_OK
+        );
+        assert_eq!(words, want);
         sbrdf_close(warp);
     }
 }

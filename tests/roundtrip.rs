@@ -191,6 +191,73 @@ fn vector_eval_agrees_with_angle_eval_and_respects_horizon() {
     assert!(out.iter().all(|v| v.is_finite()));
 }
 
+/// An RGL tensor file with its per-node fields resampled to n × n nodes of the same warped
+/// square, as `tools/make_rgl64.py` makes them (bilinear from the nodes (c, r)/(R − 1), columns
+/// first, in f64 rounded to f32; `valid` from the nearest node; every other field kept).
+fn resampled_rgl(bytes: &[u8], n: usize) -> Vec<u8> {
+    use sbrdf::io::rgl::{DType, TensorFile};
+    let tf = TensorFile::parse(bytes).unwrap();
+    let r = *tf.field("luminance").unwrap().shape.last().unwrap() as usize;
+    let at = |j: usize| {
+        let x = j as f64 / (n - 1) as f64 * (r - 1) as f64;
+        let i = (x.floor() as usize).min(r - 2);
+        (i, x - i as f64)
+    };
+    let mut fields = Vec::new();
+    for f in &tf.fields {
+        let code = (1u8..=11)
+            .find(|&c| DType::from_code(c) == Some(f.dtype))
+            .unwrap();
+        let (shape, data) = match f.name.as_str() {
+            "rgb" | "spectra" | "luminance" => {
+                let v = tf.f32s(f);
+                let planes = v.len() / (r * r);
+                let mut out = Vec::with_capacity(planes * n * n * 4);
+                for p in v.chunks_exact(r * r) {
+                    // Columns first, then rows, as the tool does.
+                    let mut cols = vec![0.0f64; r * n];
+                    for row in 0..r {
+                        for c in 0..n {
+                            let (i, t) = at(c);
+                            let (a, b) = (p[row * r + i] as f64, p[row * r + i + 1] as f64);
+                            cols[row * n + c] = a * (1.0 - t) + b * t;
+                        }
+                    }
+                    for row in 0..n {
+                        let (i, t) = at(row);
+                        for c in 0..n {
+                            let (a, b) = (cols[i * n + c], cols[(i + 1) * n + c]);
+                            out.extend_from_slice(&((a * (1.0 - t) + b * t) as f32).to_le_bytes());
+                        }
+                    }
+                }
+                let mut shape = f.shape.clone();
+                let k = shape.len();
+                shape[k - 2] = n as u64;
+                shape[k - 1] = n as u64;
+                (shape, out)
+            }
+            "valid" => {
+                let v = tf.data(f);
+                let near = |j: usize| {
+                    ((j as f64 / (n - 1) as f64) * (r - 1) as f64).round_ties_even() as usize
+                };
+                let out = (0..n * n)
+                    .map(|j| v[near(j / n) * r + near(j % n)])
+                    .collect();
+                (vec![(n * n) as u64], out)
+            }
+            _ => (f.shape.clone(), tf.data(f).to_vec()),
+        };
+        fields.push((f.name.clone(), code, shape, data));
+    }
+    let fields: Vec<(&str, u8, Vec<u64>, Vec<u8>)> = fields
+        .iter()
+        .map(|(n, c, s, d)| (n.as_str(), *c, s.clone(), d.clone()))
+        .collect();
+    sbrdf::io::rgl::write_tensor(&fields)
+}
+
 /// A material as a function of (incident, outgoing, wavelength index).
 type MaterialFn = dyn Fn((f64, f64), (f64, f64), usize) -> f64;
 
@@ -228,14 +295,19 @@ fn golden_files_decode_to_their_source_material() {
         let m = dec.material();
         let f: Vec<&str> = source.split_whitespace().collect();
         let wl: Vec<f64> = m.wavelengths.iter().map(|&w| w as f64).collect();
-        if f[0] == "rgl" {
+        if f[0] == "rgl" || f[0] == "rgl64" {
             // A measurement kept as warped tables: its colours at the measurement's own nodes
             // (the RGL reader's values, Mitsuba's evaluation) within 1.5× the encoder's 1% budget
-            // in table units. The tables follow the viewing direction ("Warped tables").
+            // in table units. The tables follow the viewing direction ("Warped tables"). `rgl64`:
+            // the measurement resampled to 64 × 64 nodes first, as tools/make_rgl64.py does.
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join("tests/data")
                 .join(f[1]);
-            let b = sbrdf::io::rgl::RglBsdf::from_bytes(&std::fs::read(path).unwrap()).unwrap();
+            let mut source = std::fs::read(path).unwrap();
+            if f[0] == "rgl64" {
+                source = resampled_rgl(&source, 64);
+            }
+            let b = sbrdf::io::rgl::RglBsdf::from_bytes(&source).unwrap();
             let (mut num, mut den) = (0.0, 0.0);
             for s in b.samples(85.0, 89.0).unwrap() {
                 let viewer = unit_vector(s.theta_i, s.phi_i);

@@ -46,7 +46,7 @@ pub enum PixelTypeArg {
 }
 
 pub fn cmd_decode(a: DecodeArgs) -> Result<()> {
-    let dec = Decoder::open(&a.input)?;
+    let dec = Decoder::open_with(&a.input, sbrdf::Residency::Exact)?;
     if a.exr {
         return decode_exr(&dec, &a);
     }

@@ -122,7 +122,7 @@ pub fn cmd_plot(a: PlotArgs) -> Result<()> {
         )));
     }
     check_input(&a.input)?;
-    let dec = Decoder::open(&a.input)?;
+    let dec = Decoder::open_with(&a.input, sbrdf::Residency::Exact)?;
     let reference = if a.reference.is_empty() {
         None
     } else {
@@ -175,7 +175,7 @@ pub fn cmd_preview(a: PreviewArgs) -> Result<()> {
     }
     let light = super::parse::parse_pair("light", &a.light)?;
     check_input(&a.input)?;
-    let dec = Decoder::open(&a.input)?;
+    let dec = Decoder::open_with(&a.input, sbrdf::Residency::Exact)?;
     let p = render_preview(
         &dec,
         &PreviewOptions {

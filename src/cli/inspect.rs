@@ -2,7 +2,7 @@
 
 use super::parse::parse_pair;
 use clap::Args;
-use sbrdf::{Decoder, Error, Result};
+use sbrdf::{Decoder, Error, Residency, Result};
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -17,6 +17,12 @@ pub struct EvalArgs {
     /// Wavelengths in nm [default: the file's samples].
     #[arg(long, value_delimiter = ',', value_name = "λ1,λ2,...")]
     pub wavelengths: Option<Vec<f64>>,
+    /// Evaluate the compact form a renderer holds (warped tables packed as the GPU layout
+    /// packs them, each value within 1/64 of its quantisation step) instead of the exact
+    /// binary64 values the specification defines. Files without warped tables give the same
+    /// values either way.
+    #[arg(long)]
+    pub compact: bool,
 }
 
 #[derive(Args)]
@@ -33,7 +39,12 @@ pub struct VerifyArgs {
 }
 
 pub fn cmd_eval(a: EvalArgs) -> Result<()> {
-    let dec = Decoder::open(&a.input)?;
+    let residency = if a.compact {
+        Residency::Compact
+    } else {
+        Residency::Exact
+    };
+    let dec = Decoder::open_with(&a.input, residency)?;
     let inc = parse_pair("incident", &a.incident)?;
     let outg = parse_pair("outgoing", &a.outgoing)?;
     if !(0.0..=90.0).contains(&inc.0) {

@@ -244,8 +244,8 @@ pub unsafe extern "C" fn sbrdf_close(b: *mut sbrdf_t) {
 /// caller's buffer. `*word_count` always receives the number of 32-bit words the layout needs
 /// (0 on error); the words are written only when `words` is not NULL and `capacity` (in words)
 /// holds them all. Ask the size first with `words` = NULL; a non-NULL buffer that is too small
-/// is `SBRDF_ERR_ARGUMENT` with nothing written. A file the layout does not cover (warped tables,
-/// `WARP`) is `SBRDF_ERR_ARGUMENT`. Builds the layout on every call.
+/// is `SBRDF_ERR_ARGUMENT` with nothing written. Every file is covered (warped tables, `WARP`,
+/// from layout version 4). Builds the layout on every call.
 #[no_mangle]
 pub unsafe extern "C" fn sbrdf_gpu_layout(
     b: *const sbrdf_t,

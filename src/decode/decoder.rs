@@ -4,6 +4,7 @@
 use super::at_wavelength::AtWavelength;
 use super::evaluator::Evaluator;
 use super::sampling::{self, Sample, SamplingWeights};
+use super::warped::Residency;
 use crate::error::{Error, Result};
 use crate::format::{read_material, Limits};
 use crate::model::material::Material;
@@ -31,6 +32,7 @@ pub struct Decoder {
     /// importance sampling ([`super::sampling`]). Computed on first use, once: they cost three
     /// times the rest of opening a file, which a decoder that only evaluates need not pay.
     sampling: std::sync::OnceLock<SamplingWeights>,
+    residency: Residency,
 }
 
 impl Decoder {
@@ -72,18 +74,36 @@ impl Decoder {
     /// # Ok::<(), sbrdf::Error>(())
     /// ```
     pub fn from_bytes_with_limits(bytes: &[u8], limits: &Limits) -> Result<Self> {
+        Self::from_bytes_with(bytes, limits, Residency::Compact)
+    }
+
+    /// Parses a file held in memory under `limits`, its warped tables (if any) held as
+    /// `residency` says: [`Residency::Compact`] (what [`Decoder::from_bytes`] and
+    /// [`Decoder::open`] give) or [`Residency::Exact`] (binary64, the specification's values, for
+    /// tools). Errors as [`Decoder::from_bytes_with_limits`].
+    ///
+    /// ```
+    /// let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/rgl_satin_warp_v15.sbrdf")).unwrap();
+    /// let exact = sbrdf::Decoder::from_bytes_with(&bytes, &sbrdf::Limits::default(), sbrdf::Residency::Exact)?;
+    /// assert_eq!(exact.residency(), sbrdf::Residency::Exact);
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
+    pub fn from_bytes_with(bytes: &[u8], limits: &Limits, residency: Residency) -> Result<Self> {
         // The reader validated the material: only its resident form is kept.
         let material = read_material(bytes, limits)?;
         Ok(Decoder {
-            evaluator: checked(Evaluator::new(&material)).map_err(|message| Error::Format {
-                at: crate::error::Location {
-                    offset: 0,
-                    chunk: Some(crate::format::CHUNK_WARP),
-                },
-                message,
+            evaluator: checked(Evaluator::new(&material, residency)).map_err(|message| {
+                Error::Format {
+                    at: crate::error::Location {
+                        offset: 0,
+                        chunk: Some(crate::format::CHUNK_WARP),
+                    },
+                    message,
+                }
             })?,
             material: std::sync::OnceLock::new(),
             sampling: std::sync::OnceLock::new(),
+            residency,
         })
     }
 
@@ -105,6 +125,12 @@ impl Decoder {
     /// # Ok::<(), sbrdf::Error>(())
     /// ```
     pub fn open(path: impl AsRef<Path>) -> Result<Self> {
+        Self::open_with(path, Residency::Compact)
+    }
+
+    /// [`Decoder::open`] with the warped tables (if any) held as `residency` says
+    /// ([`Decoder::from_bytes_with`]).
+    pub fn open_with(path: impl AsRef<Path>, residency: Residency) -> Result<Self> {
         let path = path.as_ref();
         let limits = Limits::default();
         let len = std::fs::metadata(path)
@@ -118,7 +144,7 @@ impl Decoder {
             )));
         }
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-        Self::from_bytes_with_limits(&bytes, &limits).map_err(|e| match e {
+        Self::from_bytes_with(&bytes, &limits, residency).map_err(|e| match e {
             Error::Format { at, message } => Error::Format {
                 at,
                 message: format!("{}: {message}", path.display()),
@@ -131,17 +157,25 @@ impl Decoder {
         })
     }
 
-    /// Wraps a material built in memory (by the encoder, say), validating it first.
+    /// Wraps a material built in memory (by the encoder, say), validating it first. Its warped
+    /// tables (if any) are held [exactly](Residency::Exact): a decoder built from a material
+    /// keeps the material too, and is what tools that measure a file's accuracy evaluate.
     pub fn from_material(material: Material) -> Result<Self> {
         material
             .validate()
             .map_err(|e| Error::Parameter(format!("invalid material: {e}")))?;
         Ok(Decoder {
-            evaluator: checked(Evaluator::new(&material))
+            evaluator: checked(Evaluator::new(&material, Residency::Exact))
                 .map_err(|e| Error::Parameter(format!("invalid material: {e}")))?,
             material: material.into(),
             sampling: std::sync::OnceLock::new(),
+            residency: Residency::Exact,
         })
+    }
+
+    /// How this decoder holds the file's warped tables ([`Residency`]).
+    pub fn residency(&self) -> Residency {
+        self.residency
     }
 
     /// The file's content: records, metadata, sample positions. Rebuilt from the resident form
@@ -161,8 +195,9 @@ impl Decoder {
     /// The flat device layout of this material (`spec/GPU_LAYOUT.md`): 32-bit little-endian
     /// words (f32 and u32) with a header of word offsets, for a shader to evaluate, sample and
     /// give the pdf of (the sampling section holds the weights [`Decoder::sample`] uses; the model
-    /// section a factor model, `FACT`). Files with warped tables (`WARP`) are not covered by the
-    /// layout and give [`Error::Parameter`].
+    /// section a factor model, `FACT`, or the warped tables, `WARP`, in the compact form a
+    /// decoder opened with [`Residency::Compact`] evaluates: the same words whichever residency
+    /// this decoder has).
     ///
     /// ```
     /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
@@ -174,6 +209,13 @@ impl Decoder {
     pub fn gpu_layout(&self) -> Result<Vec<u32>> {
         let mut words = super::gpu_layout::gpu_layout(&self.evaluator.res)?;
         let res = &self.evaluator.res;
+        // Warped tables (spec/GPU_LAYOUT.md, "Warped tables section"): the compact form this
+        // decoder evaluates, which answers every query and samples itself (no sampling section).
+        if let (Some(w), Some(held)) = (&self.evaluator.warped, &res.warped) {
+            let section = w.section_words(held.steps())?;
+            super::gpu_warped::append_warped_section(&mut words, &section)?;
+            return Ok(words);
+        }
         // The records' mixture weights (spec/GPU_LAYOUT.md, "Sampling section"): what
         // `Decoder::sample` draws from, a factor model included (it samples the records' mixture,
         // whose cosine covers F).

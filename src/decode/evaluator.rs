@@ -13,7 +13,7 @@ use super::kernel::{self, Kernel, Stored, KERNEL_TERMS};
 use super::lattice::{upper, Blend, Lattice, QueryFrame};
 use super::resident::{Rec, Resident};
 use super::sums::dot_f32;
-use super::warped::WarpedEval;
+use super::warped::{Residency, WarpedEval};
 use crate::model::angles::{azimuth_rotation, deg_from_dir, dir_from_deg, polar_deg};
 use crate::model::factor::{FeatureValues, MAX_COMPONENTS, MAX_RANK};
 use crate::model::material::Material;
@@ -55,8 +55,9 @@ pub(crate) struct Evaluator {
 type FactorTerms = [f64; MAX_COMPONENTS * MAX_RANK];
 
 impl Evaluator {
-    /// Prepares a material for evaluation; the caller has validated it.
-    pub(crate) fn new(material: &Material) -> Self {
+    /// Prepares a material for evaluation, its warped tables (if any) held as `residency`
+    /// says; the caller has validated it.
+    pub(crate) fn new(material: &Material, residency: Residency) -> Self {
         let lattice = Lattice::of(material);
         let small = material.sh_level <= 6 && material.spectral.terms <= SMALL_TERMS;
         let end = |t: f64| {
@@ -69,7 +70,7 @@ impl Evaluator {
         let warped = material.warped.as_ref().and_then(|w| {
             let thetas: Vec<f32> = material.records.iter().map(|r| r.theta_i).collect();
             let means = res.basis_means();
-            WarpedEval::new(w, &thetas, material.spectral.terms, &means).map(Box::new)
+            WarpedEval::new(w, &thetas, material.spectral.terms, &means, residency).map(Box::new)
         });
         let n = res.recs.len();
         let alone = (0..n).map(|r| BlendInfo::of(&res, &[r])).collect();

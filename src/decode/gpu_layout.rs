@@ -12,7 +12,7 @@ use half::f16;
 /// `SBGL` read as a little-endian u32: the first word of every layout.
 pub const GPU_LAYOUT_MAGIC: u32 = u32::from_le_bytes(*b"SBGL");
 /// The version of `spec/GPU_LAYOUT.md` this module writes.
-pub const GPU_LAYOUT_VERSION: u32 = 3;
+pub const GPU_LAYOUT_VERSION: u32 = 4;
 /// Words in the header.
 const HEADER_WORDS: usize = 20;
 /// Words in a record table entry.
@@ -24,15 +24,9 @@ const LOBE_WORDS: usize = 3;
 pub(super) const ENCODING_F32: u32 = 1;
 pub(super) const ENCODING_F16_PAIRS: u32 = 2;
 
-/// The layout of a resident material, or an error for a file the layout does not cover.
+/// The header, wavelengths, basis table, stored incidences and record table of a resident
+/// material (its sections are appended by the caller).
 pub(crate) fn gpu_layout(res: &Resident) -> Result<Vec<u32>> {
-    if res.warped.is_some() {
-        return Err(Error::Parameter(
-            "gpu layout: files with warped tables (WARP) are not covered by the layout \
-             (spec/GPU_LAYOUT.md, \"Scope\")"
-                .into(),
-        ));
-    }
     let thetas = distinct_sorted(res.recs.iter().map(|r| r.theta_i));
     let phis = distinct_sorted(res.recs.iter().map(|r| r.phi_i));
     // `spec/EVALUATION.md`, "The lattice of stored incidences".

@@ -16,6 +16,7 @@ mod general_one_wavelength;
 mod gpu_factor;
 pub mod gpu_layout;
 mod gpu_sampling;
+mod gpu_warped;
 mod kernel;
 mod lattice;
 mod proposal;
@@ -23,12 +24,12 @@ mod resident;
 pub mod sampling;
 mod sums;
 mod theta_line;
-mod warp2d;
 mod warped;
 
 pub use at_wavelength::AtWavelength;
 pub use decoder::Decoder;
 pub use draw::Sample;
+pub use warped::Residency;
 // The encoder integrates the warped tables' VNDF as the decoder does.
 #[cfg(feature = "encode")]
 pub(crate) use warped::vndf_totals;

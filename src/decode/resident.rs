@@ -74,8 +74,79 @@ pub(crate) struct Resident {
     /// as read.
     pub factor: Option<FactorModel>,
     pub held_out: Option<HeldOutErrors>,
-    /// Warped tables (`WARP`) as read (their decoded form lives in the evaluator).
-    pub warped: Option<Box<WarpedModel>>,
+    /// Warped tables (`WARP`) as read, their integers deflated (their decoded form lives in
+    /// the evaluator).
+    pub warped: Option<Box<HeldWarpedModel>>,
+}
+
+/// A [`WarpedModel`] as an open decoder keeps it to give the material back: every field but
+/// the N·K·R² integers, which are kept as zigzag LEB128 varints, deflated (mostly zeros: 98 KiB
+/// of `i32` for an RGL measurement become about 3 KiB, the size of the file's own payload).
+#[derive(Debug, Clone)]
+pub(crate) struct HeldWarpedModel {
+    /// The model with `levels` empty.
+    model: WarpedModel,
+    levels: Box<[u8]>,
+    count: usize,
+}
+
+impl HeldWarpedModel {
+    fn new(w: &WarpedModel) -> Self {
+        let mut bytes = Vec::with_capacity(w.levels.len());
+        for &z in &w.levels {
+            let mut v = ((z << 1) ^ (z >> 31)) as u32;
+            while v >= 0x80 {
+                bytes.push((v as u8) | 0x80);
+                v >>= 7;
+            }
+            bytes.push(v as u8);
+        }
+        let levels = miniz_oxide::deflate::compress_to_vec(&bytes, 1).into_boxed_slice();
+        HeldWarpedModel {
+            model: WarpedModel {
+                levels: Vec::new(),
+                ..w.clone()
+            },
+            levels,
+            count: w.levels.len(),
+        }
+    }
+
+    /// The model, its integers inflated again.
+    pub(crate) fn model(&self) -> WarpedModel {
+        // Written above from `count` integers of at most five bytes each.
+        let bytes =
+            miniz_oxide::inflate::decompress_to_vec_with_limit(&self.levels, 5 * self.count)
+                .expect("deflated by HeldWarpedModel::new");
+        let mut levels = Vec::with_capacity(self.count);
+        let (mut v, mut shift) = (0u32, 0);
+        for b in bytes {
+            v |= ((b & 0x7f) as u32) << shift;
+            if b & 0x80 == 0 {
+                levels.push((v >> 1) as i32 ^ -((v & 1) as i32));
+                (v, shift) = (0, 0);
+            } else {
+                shift += 7;
+            }
+        }
+        WarpedModel {
+            levels,
+            ..self.model.clone()
+        }
+    }
+
+    /// The model's quantisation steps q(i, k).
+    pub(crate) fn steps(&self) -> &[f32] {
+        &self.model.steps
+    }
+
+    /// The box holding this and what it owns (the model's own vectors, the deflated bytes).
+    pub(crate) fn heap_bytes(&self) -> usize {
+        // `boxed_heap_bytes` counts a boxed model's own struct, which here is inside `Self`.
+        std::mem::size_of::<Self>() - std::mem::size_of::<WarpedModel>()
+            + self.model.boxed_heap_bytes()
+            + self.levels.len()
+    }
 }
 
 impl Resident {
@@ -165,7 +236,10 @@ impl Resident {
             sample_positions: m.sample_positions.clone(),
             factor: m.factor.clone(),
             held_out: m.held_out.clone(),
-            warped: m.warped.clone(),
+            warped: m
+                .warped
+                .as_deref()
+                .map(|w| Box::new(HeldWarpedModel::new(w))),
         }
     }
 
@@ -246,7 +320,7 @@ impl Resident {
             sample_positions: self.sample_positions.clone(),
             factor: self.factor.clone(),
             held_out: self.held_out.clone(),
-            warped: self.warped.clone(),
+            warped: self.warped.as_ref().map(|w| Box::new(w.model())),
         }
     }
 
@@ -278,7 +352,7 @@ impl Resident {
                 .held_out
                 .as_ref()
                 .map_or(0, |h| 4 * (h.rel.capacity() + h.log.capacity()))
-            + self.warped.as_ref().map_or(0, |w| w.boxed_heap_bytes())
+            + self.warped.as_ref().map_or(0, |w| w.heap_bytes())
     }
 }
 

@@ -457,7 +457,8 @@ pub fn ndf_at(ndf: &[f32], x: f64) -> f64 {
 #[inline]
 pub fn lerp_nodes(len: usize, x: f64, at: impl Fn(usize) -> f64) -> f64 {
     let f = x.clamp(0.0, 1.0) * (len - 1) as f64;
-    let i = (f.floor() as usize).min(len - 2);
+    // f ≥ 0 (or NaN, which `as` turns into 0): truncation is the floor, without a call.
+    let i = (f as usize).min(len - 2);
     let t = f - i as f64;
     at(i) + (at(i + 1) - at(i)) * t
 }
