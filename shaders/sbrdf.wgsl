@@ -2225,7 +2225,7 @@ fn sbrdf_warp_vndf_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32) -
     let rows = sbrdf_warp_cell_rows(w, sl, b);
     let r = sbrdf_warp_totals(rows, sl);
     let ty = sbrdf_warp_segment((sy - sbrdf_warp_vndf_marg(w, sl, b)) * n1, r.x, r.y);
-    let target = sx * mix(r.x, r.y, ty);
+    let goal = sx * mix(r.x, r.y, ty);
     lo = 0u;
     hi = g - 1u;
     for (var it = 0u; it < 32u; it = it + 1u) {
@@ -2234,7 +2234,7 @@ fn sbrdf_warp_vndf_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32) -
         }
         let mid = (lo + hi) >> 1u;
         let cm = sbrdf_warp_conds(rows, sl, mid, sbrdf_warp_col(w, mid));
-        if (mix(cm.x, cm.y, ty) < target) {
+        if (mix(cm.x, cm.y, ty) < goal) {
             lo = mid;
         } else {
             hi = mid;
@@ -2245,7 +2245,7 @@ fn sbrdf_warp_vndf_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32) -
     let d0 = sbrdf_warp_densities(rows, sl, a, col0);
     let d1 = sbrdf_warp_densities(rows, sl, a + 1u, sbrdf_warp_col(w, a + 1u));
     let ca = sbrdf_warp_conds(rows, sl, a, col0);
-    let tx = sbrdf_warp_segment((target - mix(ca.x, ca.y, ty)) * n1, mix(d0.x, d0.y, ty),
+    let tx = sbrdf_warp_segment((goal - mix(ca.x, ca.y, ty)) * n1, mix(d0.x, d0.y, ty),
         mix(d1.x, d1.y, ty));
     return vec2<f32>((f32(a) + tx) / n1, (f32(b) + ty) / n1);
 }
@@ -2383,55 +2383,53 @@ fn sbrdf_warp_term(w: u32, q: SbrdfWarpQuery, k: u32) -> f32 {
     return (va + (vb - va) * q.sl.t) * q.f;
 }
 
-// B_k at four wavelengths ("Spectral basis"; a non-finite wavelength gives NaN, which the caller
-// turns into 0).
-fn sbrdf_warp_basis4(base: u32, k: u32, lambda: vec4<f32>) -> vec4<f32> {
+// B_k(lambda) ("Spectral basis") at a finite wavelength.
+fn sbrdf_warp_basis(base: u32, k: u32, l: f32) -> f32 {
     let basis = sbrdf_u(base + 4u);
-    var out = vec4<f32>(0.0);
-    for (var i = 0u; i < 4u; i = i + 1u) {
-        let l = lambda[i];
-        if (basis == 3u) {
-            let nw = sbrdf_u(base + 7u);
-            let ow = base + sbrdf_u(base + 13u);
-            let tab = base + sbrdf_u(base + 14u) + k * nw;
-            var j = 0u;
-            var f = 0.0;
-            if (nw > 1u && l > sbrdf_f(ow)) {
-                let bw = sbrdf_bracket(ow, nw, l);
-                j = bitcast<u32>(bw.x);
-                f = bw.y;
-            }
-            var bk = sbrdf_f(tab + j);
-            if (f != 0.0) {
-                bk = bk + f * (sbrdf_f(tab + j + 1u) - bk);
-            }
-            out[i] = bk;
-        } else {
-            let lo = sbrdf_f(base + 11u);
-            let hi = sbrdf_f(base + 12u);
-            var u = 0.0;
-            if (hi > lo) {
-                u = clamp((clamp(l, lo, hi) - lo) / (hi - lo), 0.0, 1.0);
-            }
-            if (basis == 1u) {
-                if (k == 0u) {
-                    out[i] = 0.5;
-                } else {
-                    let cs = sbrdf_sincos_turns(sbrdf_frac_mul(f32((k + 1u) / 2u), u));
-                    out[i] = select(cs.x, cs.y, (k & 1u) == 1u);
-                }
-            } else {
-                out[i] = sbrdf_sincos_turns(sbrdf_frac_mul(f32(k), 0.5 * u)).y;
-            }
+    if (basis == 3u) {
+        let nw = sbrdf_u(base + 7u);
+        let ow = base + sbrdf_u(base + 13u);
+        let tab = base + sbrdf_u(base + 14u) + k * nw;
+        var j = 0u;
+        var f = 0.0;
+        if (nw > 1u && l > sbrdf_f(ow)) {
+            let bw = sbrdf_bracket(ow, nw, l);
+            j = bitcast<u32>(bw.x);
+            f = bw.y;
         }
+        var bk = sbrdf_f(tab + j);
+        if (f != 0.0) {
+            bk = bk + f * (sbrdf_f(tab + j + 1u) - bk);
+        }
+        return bk;
     }
-    return out;
+    let lo = sbrdf_f(base + 11u);
+    let hi = sbrdf_f(base + 12u);
+    var u = 0.0;
+    if (hi > lo) {
+        u = clamp((clamp(l, lo, hi) - lo) / (hi - lo), 0.0, 1.0);
+    }
+    if (basis == 1u) {
+        if (k == 0u) {
+            return 0.5;
+        }
+        let cs = sbrdf_sincos_turns(sbrdf_frac_mul(f32((k + 1u) / 2u), u));
+        return select(cs.x, cs.y, (k & 1u) == 1u);
+    }
+    return sbrdf_sincos_turns(sbrdf_frac_mul(f32(k), 0.5 * u)).y;
 }
 
-// rho at four wavelengths (each clamped at 0; a non-finite one 0) for a query.
-fn sbrdf_warp_rho4(base: u32, w: u32, q: SbrdfWarpQuery, lambda: vec4<f32>) -> vec4<f32> {
+// rho at four wavelengths (each clamped at 0; a non-finite one 0).
+fn sbrdf_warp_eval4(base: u32, w: u32, wi: vec3<f32>, wo: vec3<f32>, l: vec4<f32>) -> vec4<f32> {
+    let q = sbrdf_warp_query(w, wi, wo);
     if (q.f == 0.0) {
         return vec4<f32>(0.0);
+    }
+    var ok = vec4<bool>(false);
+    var lf = vec4<f32>(0.0);
+    for (var i = 0u; i < 4u; i = i + 1u) {
+        ok[i] = sbrdf_finite(l[i]);
+        lf[i] = select(0.0, l[i], ok[i]);
     }
     var v = vec4<f32>(0.0);
     let nk = sbrdf_u(w + 2u);
@@ -2439,37 +2437,47 @@ fn sbrdf_warp_rho4(base: u32, w: u32, q: SbrdfWarpQuery, lambda: vec4<f32>) -> v
         if (k >= nk) {
             break;
         }
-        v = v + sbrdf_warp_term(w, q, k) * sbrdf_warp_basis4(base, k, lambda);
+        let b = vec4<f32>(sbrdf_warp_basis(base, k, lf.x), sbrdf_warp_basis(base, k, lf.y),
+            sbrdf_warp_basis(base, k, lf.z), sbrdf_warp_basis(base, k, lf.w));
+        v = v + sbrdf_warp_term(w, q, k) * b;
     }
-    var out = max(v, vec4<f32>(0.0));
-    for (var i = 0u; i < 4u; i = i + 1u) {
-        if (!sbrdf_finite(lambda[i])) {
-            out[i] = 0.0;
-        }
-    }
-    return out;
+    return select(vec4<f32>(0.0), max(v, vec4<f32>(0.0)), ok);
 }
 
-fn sbrdf_warp_eval4(base: u32, w: u32, wi: vec3<f32>, wo: vec3<f32>, l: vec4<f32>) -> vec4<f32> {
-    return sbrdf_warp_rho4(base, w, sbrdf_warp_query(w, wi, wo), l);
-}
+// Terms kept per query by sbrdf_warp_eval_rgb (files with more read the rest again per
+// wavelength; the RGL measurements have 2 or 3).
+const SBRDF_WARP_RGB_TERMS: u32 = 8u;
 
 fn sbrdf_warp_eval_rgb(base: u32, w: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
     let q = sbrdf_warp_query(w, wi, wo);
     if (q.f == 0.0) {
         return vec3<f32>(0.0);
     }
-    var rgb = vec3<f32>(0.0);
-    // 81 wavelengths, four at a time (the last group holds one).
-    for (var g = 0u; g < 21u; g = g + 1u) {
-        let i0 = 4u * g;
-        let l = 380.0 + 5.0 * vec4<f32>(f32(i0), f32(i0 + 1u), f32(i0 + 2u), f32(i0 + 3u));
-        let s = sbrdf_warp_rho4(base, w, q, l);
-        for (var j = 0u; j < 4u; j = j + 1u) {
-            if (i0 + j < 81u) {
-                rgb = rgb + s[j] * SBRDF_RGB_WEIGHTS[i0 + j];
-            }
+    let nk = sbrdf_u(w + 2u);
+    var v: array<f32, 8>;
+    for (var k = 0u; k < SBRDF_WARP_RGB_TERMS; k = k + 1u) {
+        if (k >= nk) {
+            break;
         }
+        v[k] = sbrdf_warp_term(w, q, k);
+    }
+    var rgb = vec3<f32>(0.0);
+    for (var i = 0u; i < 81u; i = i + 1u) {
+        let lambda = 380.0 + 5.0 * f32(i);
+        var s = 0.0;
+        for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
+            if (k >= nk) {
+                break;
+            }
+            var t = 0.0;
+            if (k < SBRDF_WARP_RGB_TERMS) {
+                t = v[k];
+            } else {
+                t = sbrdf_warp_term(w, q, k);
+            }
+            s = s + t * sbrdf_warp_basis(base, k, lambda);
+        }
+        rgb = rgb + max(s, 0.0) * SBRDF_RGB_WEIGHTS[i];
     }
     return rgb;
 }
@@ -2550,7 +2558,7 @@ fn sbrdf_warp_values_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32)
     let r1 = sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b + 1u, 0u),
         sbrdf_warp_values_row(w, sl.b, b + 1u, 0u));
     let ty = sbrdf_warp_segment((sy - mb) * n1, r0, r1);
-    let target = sx * mix(r0, r1, ty);
+    let goal = sx * mix(r0, r1, ty);
     var a = 0u;
     var before = 0.0;
     for (var j = 0u; j < SBRDF_WARP_MARKS; j = j + 1u) {
@@ -2558,7 +2566,7 @@ fn sbrdf_warp_values_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32)
             sbrdf_warp_values_row(w, sl.b, b, 2u + j)),
             sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b + 1u, 2u + j),
             sbrdf_warp_values_row(w, sl.b, b + 1u, 2u + j)), ty);
-        if (m >= target) {
+        if (m >= goal) {
             break;
         }
         a = (j + 1u) * (r - 1u) / (SBRDF_WARP_MARKS + 1u);
@@ -2572,7 +2580,7 @@ fn sbrdf_warp_values_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32)
             break;
         }
         let next = before + half * (c0 + c1);
-        if (next >= target) {
+        if (next >= goal) {
             break;
         }
         a = a + 1u;
@@ -2580,7 +2588,7 @@ fn sbrdf_warp_values_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32)
         c0 = c1;
         c1 = sbrdf_warp_values_col(w, sl, b, a + 1u, ty);
     }
-    let tx = sbrdf_warp_segment((target - before) * n1, c0, c1);
+    let tx = sbrdf_warp_segment((goal - before) * n1, c0, c1);
     return vec2<f32>((f32(a) + tx) / n1, (f32(b) + ty) / n1);
 }
 
