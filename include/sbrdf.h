@@ -1,7 +1,9 @@
 /* sbrdf: decoder for compact spectral BRDF files (.sbrdf). C ABI of the Rust crate `sbrdf`.
  *
  * Link target/release/libsbrdf.a (with -lpthread -ldl -lm) or libsbrdf.so. Build a lean library
- * with `cargo build --release --lib --no-default-features`.
+ * with `cargo build --release --lib --no-default-features`; the shared library with
+ * `cargo rustc --release --lib --no-default-features --crate-type cdylib` (the crate's own
+ * crate types are rlib and staticlib).
  *
  * Conventions: wi points from the surface toward the light, wo toward the viewer; both are unit
  * vectors in the local shading frame with z the surface normal. Values are in 1/sr, wavelengths
@@ -57,6 +59,13 @@ int  sbrdf_pdf(const sbrdf_t *b, const float wi[3], const float wo[3], float *pd
  * a buffer too small is SBRDF_ERR_ARGUMENT, nothing written. Every file is covered; files with
  * warped tables (WARP, the RGL measurements) from layout version 4 on. */
 int  sbrdf_gpu_layout(const sbrdf_t *b, uint32_t *words, size_t capacity, size_t *word_count);
+/* Several materials in one buffer, as a renderer uploads it (sbrdf::gpu::pack): the layouts of
+ * materials[0 .. count) one after another, bases[i] the word offset of material i's (the base the
+ * shader's functions take). *word_count and the buffer as for sbrdf_gpu_layout; the count bases
+ * are written with the words, and bases must then not be NULL. A NULL material is SBRDF_ERR_NULL;
+ * count = 0 is SBRDF_ERR_ARGUMENT. Every file is covered, as for sbrdf_gpu_layout. */
+int  sbrdf_gpu_pack(const sbrdf_t *const *materials, size_t count, uint32_t *words,
+                    size_t capacity, size_t *word_count, uint32_t *bases);
 void sbrdf_close(sbrdf_t *b);
 const char *sbrdf_error_message(int code);                    /* static string, never NULL */
 

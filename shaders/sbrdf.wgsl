@@ -7,9 +7,9 @@
 //
 //     @group(0) @binding(0) var<storage, read> sbrdf_words: array<u32>;
 //
-// filled with the words `Decoder::gpu_layout()` returns (several materials may be concatenated;
-// a material is addressed by the word offset `base` where its layout starts). Every identifier
-// this module declares starts with `sbrdf_` / `SBRDF_`.
+// filled with the words `Decoder::gpu_layout()` returns (several materials may be concatenated,
+// as `sbrdf::gpu::pack` does; a material is addressed by the word offset `base` where its layout
+// starts). Every identifier this module declares starts with `sbrdf_` / `SBRDF_` / `Sbrdf`.
 //
 // FUNCTIONS.
 //   sbrdf_eval(base, wi, wo, lambda_nm) -> f32
@@ -35,12 +35,25 @@
 // end (the spectral basis clamps it). The layout is assumed valid (made by `gpu_layout()`):
 // nothing here bounds-checks offsets.
 //
-// MODEL SECTIONS. A layout without a sampling section (version 1) samples the cosine. A factor
-// model (FACT) is the model section of kind 1 (version 3, header word 19; 0 in versions 1 and 2):
-// its F is added to the records' series. Warped tables (WARP, the RGL measurements) are the
-// model section of kind 2 (version 4): they answer every query and sample themselves (the
-// "warped tables" block at the end).
-// No check of the header's magic or version is made per query: the host checks them once.
+// EVERY FILE. A layout without a sampling section (version 1) samples the cosine. A factor
+// model (FACT) is the model section of kind 1 (header word 19, 0 in versions 1 and 2): its F is
+// added to the records' series. Warped tables (WARP, the RGL measurements) are the model
+// section of kind 2 (version 4): such a file has no records and no sampling section; the
+// section answers evaluation (its coefficients take the records' place in the same spectral
+// sum) and sampling itself, reading the compact form the CPU decoder also holds. No check of
+// the header's magic or version is made per query: the host checks them once.
+//
+// PRIVATE MEMORY. Nothing here is sized by a material: the spherical harmonics are evaluated by
+// their recurrence and folded into the sums as each Y_lm is produced; the spectral terms are
+// taken four at a time (a vec4 of basis values, one chunk for files of up to four terms, as the
+// encoder's defaults make them); the factor model's angular terms are used as they are computed;
+// the sampling mixture's components are recomputed where they are needed instead of being
+// stored. WGSL cannot size a function-scope array by a pipeline constant (only workgroup arrays),
+// and a host-generated size would make the text depend on the materials: streaming keeps one
+// text for every layout. No `const` array is indexed at run time either (a SPIR-V writer copies
+// such an array into private memory to index it): the colour weights and the factor model's
+// nodes are `switch` functions. gpu/tests/private_memory.rs bounds what each entry point may
+// keep (at most 256 bytes, from naga's IR).
 //
 // PRECISION. Everything is f32; the CPU decoder computes in f64. The places where f32 would
 // lose more than a few units in the last place are written specially; each says why below.
@@ -52,10 +65,137 @@
 // phong_3inc_direct_f16.sbrdf sums terms of magnitude ~200 to values ~0.1, and rounding its
 // SH functions to f32 alone moves the value by 2e-6): measured on lavapipe against the CPU, up
 // to 12 times the tolerance 1e-5 relative plus 1e-7 of the file's largest value, which every
-// other covered golden file meets (worst 0.44 of it).
+// other covered golden file meets.
+
+// BEGIN GENERATED LAYOUT WORDS
+// Generated from src/decode/gpu_words.rs, the one definition of spec/GPU_LAYOUT.md's word
+// offsets; do not edit (the test gpu::tests::layout_words_match_the_rust_table says how to
+// regenerate). Offsets are in words, relative to what each table's comment says.
+// Header (20 words), relative to base
+const SBRDF_HDR_MAGIC: u32 = 0u; // u32: magic
+const SBRDF_HDR_VERSION: u32 = 1u; // u32: layout version
+const SBRDF_HDR_TOTAL: u32 = 2u; // u32: total_words
+const SBRDF_HDR_INCIDENCE: u32 = 3u; // u32: incidence layout
+const SBRDF_HDR_BASIS: u32 = 4u; // u32: spectral basis
+const SBRDF_HDR_TERMS: u32 = 5u; // u32: K, the basis's number of terms
+const SBRDF_HDR_SH_LEVEL: u32 = 6u; // u32: sh_level
+const SBRDF_HDR_WAVES: u32 = 7u; // u32: W, the number of wavelengths
+const SBRDF_HDR_RECORDS: u32 = 8u; // u32: N, the number of records
+const SBRDF_HDR_THETAS: u32 = 9u; // u32: T, the number of distinct stored θi
+const SBRDF_HDR_PHIS: u32 = 10u; // u32: P, the number of distinct stored φi
+const SBRDF_HDR_LAMBDA_MIN: u32 = 11u; // f32: λmin (nm)
+const SBRDF_HDR_LAMBDA_MAX: u32 = 12u; // f32: λmax (nm)
+const SBRDF_HDR_OFF_WAVES: u32 = 13u; // u32: offset of the wavelengths
+const SBRDF_HDR_OFF_BASIS_TABLE: u32 = 14u; // u32: offset of the basis table
+const SBRDF_HDR_OFF_THETAS: u32 = 15u; // u32: offset of the stored θi
+const SBRDF_HDR_OFF_PHIS: u32 = 16u; // u32: offset of the stored φi
+const SBRDF_HDR_OFF_RECORDS: u32 = 17u; // u32: offset of the record table
+const SBRDF_HDR_OFF_SAMPLING: u32 = 18u; // u32: offset of the sampling section
+const SBRDF_HDR_OFF_MODEL: u32 = 19u; // u32: offset of the model section
+const SBRDF_HDR_WORDS: u32 = 20u;
+// Record table entry (12 words), relative to a record table entry
+const SBRDF_REC_THETA_I: u32 = 0u; // f32: θi (degrees)
+const SBRDF_REC_PHI_I: u32 = 1u; // f32: φi
+const SBRDF_REC_THETA_P: u32 = 2u; // f32: θp, the peak's polar angle
+const SBRDF_REC_PHI_P: u32 = 3u; // f32: φp
+const SBRDF_REC_LEVEL: u32 = 4u; // u32: the record's SH level L
+const SBRDF_REC_TERMS: u32 = 5u; // u32: terms
+const SBRDF_REC_LOBES: u32 = 6u; // u32: lobe count M
+const SBRDF_REC_ENCODING: u32 = 7u; // u32: value encoding
+const SBRDF_REC_SCALE: u32 = 8u; // f32: scale
+const SBRDF_REC_OFF_SH: u32 = 9u; // u32: offset of the SH coefficients
+const SBRDF_REC_OFF_LOBES: u32 = 10u; // u32: offset of the lobe table
+const SBRDF_REC_RESERVED: u32 = 11u; // u32: 0 (reserved)
+const SBRDF_REC_WORDS: u32 = 12u;
+// Lobe table entry (3 words), relative to a lobe table entry
+const SBRDF_LOBE_KIND: u32 = 0u; // u32: kind
+const SBRDF_LOBE_OFF_AMPLITUDES: u32 = 1u; // u32: offset of its amplitudes
+const SBRDF_LOBE_OFF_PARAMETERS: u32 = 2u; // u32: offset of its parameters
+const SBRDF_LOBE_WORDS: u32 = 3u;
+// Sampling section, its record index (1 words), relative to the sampling section (header word 18) + r
+const SBRDF_SMP_OFF_WEIGHTS: u32 = 0u; // u32: offset of record r's weights
+const SBRDF_SMP_WORDS: u32 = 1u;
+// Sampling section, a record's weights (1 words), relative to a record's weights
+const SBRDF_SW_BACKGROUND: u32 = 0u; // f32: E_bg
+const SBRDF_SW_WORDS: u32 = 1u;
+// Sampling section, a lobe's weights in its record's (2 words), relative to a record's weights + 1 + 2 l
+const SBRDF_SWL_ENERGY: u32 = 0u; // f32: E_l
+const SBRDF_SWL_LN_WIDTH: u32 = 1u; // f32: ln b_l
+const SBRDF_SWL_WORDS: u32 = 2u;
+// Model section, every kind (1 words), relative to the model section (header word 19)
+const SBRDF_MODEL_KIND: u32 = 0u; // u32: kind
+const SBRDF_MODEL_WORDS: u32 = 1u;
+// Model section of kind 1, the factor model (14 words), relative to the model section of kind 1
+const SBRDF_FACT_ENCODING: u32 = 1u; // u32: value encoding of the model's values
+const SBRDF_FACT_COMPONENTS: u32 = 2u; // u32: C, the number of components
+const SBRDF_FACT_RESERVED: u32 = 3u; // u32: 0 (reserved)
+const SBRDF_FACT_RANGES: u32 = 4u; // 10 f32 words, to 13: the ranges
+const SBRDF_FACT_WORDS: u32 = 14u;
+// Factor model, a component's entry (4 words), relative to the model section of kind 1 + 14 + 4 c
+const SBRDF_FACT_C_RANK: u32 = 0u; // u32: rank R_c
+const SBRDF_FACT_C_FEATURES: u32 = 1u; // u32: feature count F_c
+const SBRDF_FACT_C_CODES: u32 = 2u; // u32: feature codes
+const SBRDF_FACT_C_OFF_VALUES: u32 = 3u; // u32: offset of its values
+const SBRDF_FACT_C_WORDS: u32 = 4u;
+// Model section of kind 2, warped tables (16 words), relative to the model section of kind 2
+const SBRDF_WARP_KIND: u32 = 0u; // u32: kind: 2 warped tables
+const SBRDF_WARP_N: u32 = 1u; // u32: N, stored incidences
+const SBRDF_WARP_K: u32 = 2u; // u32: K, spectral terms
+const SBRDF_WARP_R: u32 = 3u; // u32: R, table side
+const SBRDF_WARP_G: u32 = 4u; // u32: G, VNDF grid side
+const SBRDF_WARP_M: u32 = 5u; // u32: M, NDF nodes
+const SBRDF_WARP_OFF_INCIDENCES: u32 = 6u; // u32: offset of the incidences
+const SBRDF_WARP_OFF_NDF: u32 = 7u; // u32: offset of the NDF
+const SBRDF_WARP_OFF_SIGMA: u32 = 8u; // u32: offset of σ
+const SBRDF_WARP_OFF_COLUMNS: u32 = 9u; // u32: offset of the columns
+const SBRDF_WARP_OFF_ROW_COSINES: u32 = 10u; // u32: offset of the rows' cosines
+const SBRDF_WARP_OFF_VNDF_ROWS: u32 = 11u; // u32: offset of the VNDF rows
+const SBRDF_WARP_OFF_TABLES: u32 = 12u; // u32: offset of the table entries
+const SBRDF_WARP_OFF_VALUES_ROWS: u32 = 13u; // u32: offset of the values rows
+const SBRDF_WARP_OFF_BASIS_MEANS: u32 = 14u; // u32: offset of the basis means
+const SBRDF_WARP_RESERVED: u32 = 15u; // u32: 0 (reserved)
+const SBRDF_WARP_WORDS: u32 = 16u;
+// Warped tables, a stored incidence (6 words), relative to an incidence entry
+const SBRDF_WARP_INC_THETA: u32 = 0u; // f32: θ_i (radians)
+const SBRDF_WARP_INC_SIN: u32 = 1u; // f32: sin θ_i
+const SBRDF_WARP_INC_COS: u32 = 2u; // f32: cos θ_i
+const SBRDF_WARP_INC_VNDF_SCALE: u32 = 3u; // f32: 1/I_i
+const SBRDF_WARP_INC_VALUES_SCALE: u32 = 4u; // f32: the values' density: 1 over its total
+const SBRDF_WARP_INC_VALUES_FLOOR: u32 = 5u; // f32: the values' floor
+const SBRDF_WARP_INC_WORDS: u32 = 6u;
+// Warped tables, a VNDF column (5 words), relative to a column entry
+const SBRDF_WARP_COL_F: u32 = 0u; // f32: f_a
+const SBRDF_WARP_COL_SIN: u32 = 1u; // f32: sin θm_a
+const SBRDF_WARP_COL_COS: u32 = 2u; // f32: cos θm_a
+const SBRDF_WARP_COL_U: u32 = 3u; // f32: U[a]
+const SBRDF_WARP_COL_V: u32 = 4u; // f32: V[a]
+const SBRDF_WARP_COL_WORDS: u32 = 5u;
+// Warped tables, a table's entry (4 words), relative to a table entry
+const SBRDF_WARP_TAB_OFF_CODES: u32 = 0u; // u32: offset of its codes
+const SBRDF_WARP_TAB_BITS: u32 = 1u; // u32: bits per code
+const SBRDF_WARP_TAB_LO: u32 = 2u; // f32: least value
+const SBRDF_WARP_TAB_STEP: u32 = 3u; // f32: step
+const SBRDF_WARP_TAB_WORDS: u32 = 4u;
+// Warped tables, a values row (5 words), relative to a values row
+const SBRDF_WARP_VAL_TOTAL: u32 = 0u; // f32: the row's total
+const SBRDF_WARP_VAL_MARG: u32 = 1u; // f32: its marginal
+const SBRDF_WARP_VAL_MARKS: u32 = 2u; // 3 f32 words, to 4: conditional integrals at columns
+const SBRDF_WARP_VAL_WORDS: u32 = 5u;
+// Codes the words hold
+const SBRDF_INCIDENCE_ISOTROPIC: u32 = 0u; // header word 3
+const SBRDF_INCIDENCE_LATTICE: u32 = 1u; // header word 3
+const SBRDF_INCIDENCE_SCATTERED: u32 = 2u; // header word 3
+const SBRDF_ENCODING_F32: u32 = 1u; // one f32 per word
+const SBRDF_ENCODING_F16_PAIRS: u32 = 2u; // two f16 per word
+const SBRDF_MODEL_FACTOR: u32 = 1u; // model kind 1: the factor model
+const SBRDF_MODEL_WARPED: u32 = 2u; // model kind 2: warped tables
+const SBRDF_WARP_POSITIVE_BITS: u32 = 9u; // a VNDF row's positive run below, its marginal above
+const SBRDF_WARP_MARKS: u32 = 3u; // conditional integrals kept per values row
+const SBRDF_LAYOUT_MAGIC: u32 = 0x4c474253u; // header word 0: the bytes SBGL
+// END GENERATED LAYOUT WORDS
 
 const SBRDF_MAX_TERMS: u32 = 256u; // K <= 256 (spec/FORMAT.md)
-const SBRDF_MAX_SH: u32 = 441u; // (20 + 1)^2: SH level <= 20
+const SBRDF_MAX_LEVEL: u32 = 20u; // SH level <= 20
 const SBRDF_MAX_BLEND: u32 = 4u; // at most 4 records are blended (2 when isotropic)
 const SBRDF_MAX_LOBES: u32 = 8u; // at most 8 lobes per record
 const SBRDF_PI: f32 = 3.14159265358979;
@@ -74,11 +214,45 @@ fn sbrdf_f(i: u32) -> f32 {
 
 // Value i of a record's array at absolute word `o` (GPU_LAYOUT.md, "Value encodings").
 fn sbrdf_value(o: u32, i: u32, enc: u32, scale: f32) -> f32 {
-    if (enc == 1u) {
+    if (enc == SBRDF_ENCODING_F32) {
         return sbrdf_f(o + i);
     }
     let pair = unpack2x16float(sbrdf_words[o + (i >> 1u)]);
     return select(pair.x, pair.y, (i & 1u) == 1u) * scale;
+}
+
+// Values i, i + d, i + 2d, i + 3d of an array: the first n (0 to 4) read, the others 0 and not
+// read (past a record's terms, the words belong to something else).
+fn sbrdf_values4(o: u32, i: u32, d: u32, n: u32, enc: u32, scale: f32) -> vec4<f32> {
+    var v = vec4<f32>(0.0);
+    if (n > 0u) {
+        v.x = sbrdf_value(o, i, enc, scale);
+    }
+    if (n > 1u) {
+        v.y = sbrdf_value(o, i + d, enc, scale);
+    }
+    if (n > 2u) {
+        v.z = sbrdf_value(o, i + 2u * d, enc, scale);
+    }
+    if (n > 3u) {
+        v.w = sbrdf_value(o, i + 3u * d, enc, scale);
+    }
+    return v;
+}
+
+// The number of terms k0, k0 + 1, ... below `terms`, at most 4: a chunk's width.
+fn sbrdf_chunk(k0: u32, terms: u32) -> u32 {
+    return select(0u, min(terms - k0, 4u), k0 < terms);
+}
+
+// The absolute word of record r's table entry.
+fn sbrdf_rec(base: u32, r: u32) -> u32 {
+    return base + sbrdf_u(base + SBRDF_HDR_OFF_RECORDS) + SBRDF_REC_WORDS * r;
+}
+
+// The absolute word of lobe li's table entry in the record whose entry is at e.
+fn sbrdf_lobe(base: u32, e: u32, li: u32) -> u32 {
+    return base + sbrdf_u(e + SBRDF_REC_OFF_LOBES) + SBRDF_LOBE_WORDS * li;
 }
 
 // Not NaN and not +-Inf, from the bits: a comparison-based test can be folded away by a
@@ -86,6 +260,7 @@ fn sbrdf_value(o: u32, i: u32, enc: u32, scale: f32) -> f32 {
 fn sbrdf_finite(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
 }
+
 
 // ------------------------------------------------------------------ elementary functions
 
@@ -109,6 +284,7 @@ fn sbrdf_sincos_reduced(x: f32, quadrant: i32) -> vec2<f32> {
     return vec2<f32>(-c, s);
 }
 
+
 // (sin, cos) of an angle in degrees. The reduction by quarter turns is done in degrees, where
 // it is exact for the stored angles (a - 90q is exact in f32 for |a| < 2^17), so only the final
 // conversion of |r| <= 45 degrees to radians rounds; radians first would round pi/2 multiples.
@@ -118,6 +294,7 @@ fn sbrdf_sincos_deg(a: f32) -> vec2<f32> {
     return sbrdf_sincos_reduced(r * SBRDF_DEG, i32(q));
 }
 
+
 // (sin, cos) of 2 pi p, p in turns (the spectral bases' phases, already reduced to [0, 1)).
 fn sbrdf_sincos_turns(p: f32) -> vec2<f32> {
     let q = round(p * 4.0);
@@ -125,12 +302,14 @@ fn sbrdf_sincos_turns(p: f32) -> vec2<f32> {
     return sbrdf_sincos_reduced(r * (2.0 * SBRDF_PI), i32(q));
 }
 
+
 // The unit vector of (theta, phi) in degrees ("Directions").
 fn sbrdf_dir(theta: f32, phi: f32) -> vec3<f32> {
     let t = sbrdf_sincos_deg(theta);
     let p = sbrdf_sincos_deg(phi);
     return vec3<f32>(t.x * p.y, t.x * p.x, t.y);
 }
+
 
 // atan(x) for 0 <= x <= 1, radians: Abramowitz & Stegun 4.4.49 (the polynomial the CPU decoder
 // uses for theta), written as x times a polynomial in x^2 so that it stays accurate relative to
@@ -142,6 +321,7 @@ fn sbrdf_atan01(x: f32) -> f32 {
         + x2 * 0.0028662257))))));
     return x + x * x2 * p;
 }
+
 
 // atan2(y, x) in degrees, in (-180, 180]; 0 for (0, 0). The complement to 90 and 180 is taken
 // in degrees, where 90 and 180 are exact (pi/2 in f32 is not).
@@ -165,6 +345,7 @@ fn sbrdf_atan2_deg(y: f32, x: f32) -> f32 {
     return a;
 }
 
+
 // atan2(y, x) in radians for y >= 0, x >= 0 (angles between two directions: both are lengths).
 fn sbrdf_atan2_pos(y: f32, x: f32) -> f32 {
     let hi = max(x, y);
@@ -174,6 +355,7 @@ fn sbrdf_atan2_pos(y: f32, x: f32) -> f32 {
     let a = sbrdf_atan01(min(x, y) / hi);
     return select(a, 0.5 * SBRDF_PI - a, y > x);
 }
+
 
 // log(1 + f) for |f| <= 0.42: 2 atanh(f / (2 + f)) as its odd series. |t| <= 0.27, t^2 <= 0.073,
 // the series to t^17 leaves a truncation error below 1e-10. Exact near f = 0 relative to the
@@ -186,6 +368,7 @@ fn sbrdf_log1p_small(f: f32) -> f32 {
         + t2 * (1.0 / 11.0 + t2 * (1.0 / 13.0 + t2 * (1.0 / 15.0 + t2 * (1.0 / 17.0))))))));
     return 2.0 * t * s;
 }
+
 
 // Natural logarithm of x > 0 (finite, normal or subnormal): x = m 2^e with m in
 // [sqrt(1/2), sqrt(2)), log m from the series above (m - 1 is exact there), e ln 2 split in two
@@ -203,6 +386,7 @@ fn sbrdf_ln(x: f32) -> f32 {
     return e * ln2_hi + (e * ln2_lo + sbrdf_log1p_small(m - 1.0));
 }
 
+
 // log(1 + x), x > -1, accurate relative to the result for small x.
 fn sbrdf_log1p(x: f32) -> f32 {
     if (abs(x) <= 0.41) {
@@ -211,23 +395,36 @@ fn sbrdf_log1p(x: f32) -> f32 {
     return sbrdf_ln(1.0 + x);
 }
 
+
 // ------------------------------------------------------------------ spherical harmonics
 
-// Real SH Y_0..Y_{(level+1)^2-1} at the unit vector w ("Spherical harmonics", Cartesian form),
-// into y. The associated Legendre part is carried already normalised (the recurrence of
-// K_l^m Q_l^m): the unnormalised Q_l^m and the factorial ratio of K_l^m overflow f32 from
-// level 17 on ((2m-1)!! and (l+m)! up to 40!), and their product would lose precision.
-fn sbrdf_sh_eval(level: u32, w: vec3<f32>, y: ptr<function, array<f32, 441>>) {
-    let x = w.x;
-    let yy = w.y;
-    let z = w.z;
+// Terms k0 .. k0 + 3 of a record's SH background at the unit vector w: sum_j c[k][j] Y_j(w)
+// ("Spherical harmonics", Cartesian form), 0 past the record's terms. The Y_j are produced by
+// their recurrence and folded into the four sums as they come (nothing is stored), in the
+// recurrence's order (m, then l). The associated Legendre part is carried already normalised
+// (the recurrence of K_l^m Q_l^m): the unnormalised Q_l^m and the factorial ratio of K_l^m
+// overflow f32 from level 17 on ((2m-1)!! and (l+m)! up to 40!), and their product would lose
+// precision.
+fn sbrdf_sh4(base: u32, e: u32, w: vec3<f32>, k0: u32) -> vec4<f32> {
+    let n = sbrdf_chunk(k0, sbrdf_u(e + SBRDF_REC_TERMS));
+    if (n == 0u) {
+        return vec4<f32>(0.0);
+    }
+    let level = min(sbrdf_u(e + SBRDF_REC_LEVEL), SBRDF_MAX_LEVEL);
+    let pr = (level + 1u) * (level + 1u);
+    let enc = sbrdf_u(e + SBRDF_REC_ENCODING);
+    let scale = sbrdf_f(e + SBRDF_REC_SCALE);
+    // Coefficient j of term k is value k pr + j; term k0's first is at k0 pr.
+    let o = base + sbrdf_u(e + SBRDF_REC_OFF_SH);
+    let at = k0 * pr;
+    var acc = vec4<f32>(0.0);
     var c = 1.0; // C_m
     var s = 0.0; // S_m
     var pmm = 0.28209479177387814; // K_0^0 Q_0^0 = sqrt(1 / (4 pi))
     for (var m = 0u; m <= level; m = m + 1u) {
         if (m > 0u) {
-            let c2 = x * c - yy * s;
-            s = yy * c + x * s;
+            let c2 = w.x * c - w.y * s;
+            s = w.y * c + w.x * s;
             c = c2;
             let fm = f32(m);
             pmm = pmm * sqrt((2.0 * fm + 1.0) / (2.0 * fm));
@@ -239,25 +436,28 @@ fn sbrdf_sh_eval(level: u32, w: vec3<f32>, y: ptr<function, array<f32, 441>>) {
             var p = pmm;
             let fl = f32(l);
             if (l == m + 1u) {
-                p = sqrt(2.0 * fm + 3.0) * z * pmm;
+                p = sqrt(2.0 * fm + 3.0) * w.z * pmm;
             } else if (l > m + 1u) {
                 let a = sqrt((4.0 * fl * fl - 1.0) / (fl * fl - fm * fm));
                 let b = sqrt(((fl - 1.0) * (fl - 1.0) - fm * fm) / (4.0 * (fl - 1.0) * (fl - 1.0) - 1.0));
-                p = a * (z * p1 - b * p2);
+                p = a * (w.z * p1 - b * p2);
             }
             if (l > m) {
                 p2 = p1;
                 p1 = p;
             }
-            let centre = l * (l + 1u);
+            // Y_{l,0} = p at index l(l+1); Y_{l,+-m} = sqrt(2) p C_m, sqrt(2) p S_m at l(l+1) +- m.
+            let centre = at + l * (l + 1u);
             if (m == 0u) {
-                (*y)[centre] = p;
+                acc = acc + p * sbrdf_values4(o, centre, pr, n, enc, scale);
             } else {
-                (*y)[centre + m] = 1.41421356237 * p * c;
-                (*y)[centre - m] = 1.41421356237 * p * s;
+                let q = 1.41421356237 * p;
+                acc = acc + (q * c) * sbrdf_values4(o, centre + m, pr, n, enc, scale);
+                acc = acc + (q * s) * sbrdf_values4(o, centre - m, pr, n, enc, scale);
             }
         }
     }
+    return acc;
 }
 
 // ------------------------------------------------------------------ lobes
@@ -268,6 +468,7 @@ fn sbrdf_sh_eval(level: u32, w: vec3<f32>, y: ptr<function, array<f32, 441>>) {
 fn sbrdf_angle(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return 2.0 * sbrdf_atan2_pos(length(a - b), length(a + b));
 }
+
 
 // max(0, w . p)^n (kind 4). Written as exp(n log(1 - 2 sin^2(alpha/2))) with
 // sin^2(alpha/2) = |w - p|^2 / 4: near the peak, where a large n makes the value sensitive,
@@ -288,6 +489,7 @@ fn sbrdf_cos_power(w: vec3<f32>, p: vec3<f32>, n: f32) -> f32 {
     }
     return exp(n * sbrdf_log1p(-x));
 }
+
 
 // Microfacet geometry and the four variants of kinds 2, 3 and 5 ("Lobes"). `kind` 2 or 3 with
 // (b, c, a) in p.xyz; kind 5 with (bx, by, c) in p.xyz and (ax, ay, psi) in q.xyz.
@@ -343,15 +545,48 @@ fn sbrdf_microfacet(kind: u32, p: vec3<f32>, q: vec3<f32>, wi: vec3<f32>, w: vec
     return vec4<f32>(dist * vs, dist * vs * f, dist * vc, dist * vc * f);
 }
 
+
+// exp(-a2 / width_k) for the first n of the widths at word `par` from index k0 (an angle
+// Gaussian's terms), 0 in the other lanes.
+fn sbrdf_gauss4(a2: f32, par: u32, k0: u32, n: u32) -> vec4<f32> {
+    var g = vec4<f32>(0.0);
+    if (n > 0u) {
+        g.x = exp(-a2 / sbrdf_f(par + k0));
+    }
+    if (n > 1u) {
+        g.y = exp(-a2 / sbrdf_f(par + k0 + 1u));
+    }
+    if (n > 2u) {
+        g.z = exp(-a2 / sbrdf_f(par + k0 + 2u));
+    }
+    if (n > 3u) {
+        g.w = exp(-a2 / sbrdf_f(par + k0 + 3u));
+    }
+    return g;
+}
+
 // ------------------------------------------------------------------ the query
 
-struct SbrdfBlend {
-    n: u32, // records blended (1..4), in increasing record index
+// The incident side of a query, shared by evaluation and sampling ("Reconstruction", steps 3
+// and 4; "Between stored incidences"): the records blended, in the order the CPU's lattice
+// first meets them, with their weights (all > 0); the evaluation incidence and its direction in
+// the records' frame; the turn (cos, sin) into that frame (isotropic files; (1, 0) otherwise);
+// the blended records' largest term count (T*) and lobe count.
+struct SbrdfQuery {
+    n: u32,
     rec: array<u32, 4>,
     w: array<f32, 4>,
-    theta: f32, // the evaluation incidence (theta*, phi*), degrees
+    theta: f32,
     phi: f32,
-    wi: vec3<f32>, // its direction, in the records' frame
+    wi: vec3<f32>,
+    // Warped tables (model section kind 2): the section's absolute word, 0 for every other
+    // file. A warped query blends no records (n = 0, tmax = K); rec and w then hold what the
+    // pair reads of the tables (sbrdf_warp_query). (Here, after the vec3, the word costs no
+    // space: private memory is what a GPU is short of.)
+    warp: u32,
+    rot: vec2<f32>,
+    tmax: u32,
+    mmax: u32,
 }
 
 // v / |v| with (1, 1, 1, 1) in .w, or all 0 when v is zero, not finite, or below the horizon
@@ -373,6 +608,7 @@ fn sbrdf_upper(v: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(n, 1.0);
 }
 
+
 fn sbrdf_wrap360(x: f32) -> f32 {
     var r = x % 360.0;
     if (r < 0.0) {
@@ -380,6 +616,7 @@ fn sbrdf_wrap360(x: f32) -> f32 {
     }
     return select(r, 0.0, r >= 360.0);
 }
+
 
 // "Between stored incidences", Bracketing, over n f32 words at `o`: (i, t) in (.x as bits, .y).
 fn sbrdf_bracket(o: u32, n: u32, x: f32) -> vec2<f32> {
@@ -408,114 +645,37 @@ fn sbrdf_bracket(o: u32, n: u32, x: f32) -> vec2<f32> {
     return vec2<f32>(bitcast<f32>(lo), (x - a) / (b - a));
 }
 
-fn sbrdf_blend_add(bl: ptr<function, SbrdfBlend>, rec: u32, w: f32) {
+
+// Record rec with weight w added to the blend as the CPU's Blend::push adds it: a weight <= 0
+// is dropped, a record already there gets the weight added, records stay in the order they were
+// first added (the sampling mixture's components follow this order, and u.x picks among them
+// in it).
+fn sbrdf_push(q: ptr<function, SbrdfQuery>, rec: u32, w: f32) {
+    if (!(w > 0.0)) {
+        return;
+    }
     for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
-        if (i >= (*bl).n) {
+        if (i >= (*q).n) {
             break;
         }
-        if ((*bl).rec[i] == rec) {
-            (*bl).w[i] = (*bl).w[i] + w;
+        if ((*q).rec[i] == rec) {
+            (*q).w[i] = (*q).w[i] + w;
             return;
         }
     }
-    let n = (*bl).n;
-    (*bl).rec[n] = rec;
-    (*bl).w[n] = w;
-    (*bl).n = n + 1u;
+    let n = (*q).n;
+    (*q).rec[n] = rec;
+    (*q).w[n] = w;
+    (*q).n = n + 1u;
 }
 
-// Step 4: the cells merged by record, sorted by record index, weights 0 dropped.
-fn sbrdf_blend_finish(bl: ptr<function, SbrdfBlend>) {
-    var out: SbrdfBlend = *bl;
-    out.n = 0u;
-    for (var it = 0u; it < SBRDF_MAX_BLEND; it = it + 1u) {
-        // selection: the smallest record index not yet taken with a positive weight
-        var best = 0xffffffffu;
-        var bw = 0.0;
-        for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
-            if (i < (*bl).n && (*bl).w[i] > 0.0 && (*bl).rec[i] < best
-                && (out.n == 0u || (*bl).rec[i] > out.rec[out.n - 1u])) {
-                best = (*bl).rec[i];
-                bw = (*bl).w[i];
-            }
-        }
-        if (best == 0xffffffffu) {
-            break;
-        }
-        out.rec[out.n] = best;
-        out.w[out.n] = bw;
-        out.n = out.n + 1u;
-    }
-    *bl = out;
-}
-
-// The record table entry of record r.
-fn sbrdf_rec(base: u32, r: u32) -> u32 {
-    return base + sbrdf_u(base + 17u) + 12u * r;
-}
-
-// The peak direction of record entry e.
-fn sbrdf_rec_peak(e: u32) -> vec3<f32> {
-    return sbrdf_dir(sbrdf_f(e + 2u), sbrdf_f(e + 3u));
-}
-
-// "Blended peak direction" of a lobe shared by the blended records (kinds 1 and 4).
-fn sbrdf_blended_peak(base: u32, bl: SbrdfBlend, isotropic: bool) -> vec3<f32> {
-    if (isotropic) {
-        var v = vec3<f32>(0.0);
-        for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
-            if (i < bl.n) {
-                v = v + bl.w[i] * sbrdf_rec_peak(sbrdf_rec(base, bl.rec[i]));
-            }
-        }
-        let n = length(v);
-        if (n != 0.0 && sbrdf_finite(n)) {
-            return v / n;
-        }
-    }
-    var dt = 0.0;
-    var dp = 0.0;
-    for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
-        if (i < bl.n) {
-            let e = sbrdf_rec(base, bl.rec[i]);
-            let ti = sbrdf_f(e);
-            let pi = sbrdf_f(e + 1u);
-            let tp = sbrdf_f(e + 2u);
-            let pp = sbrdf_f(e + 3u);
-            dt = dt + bl.w[i] * (tp - ti);
-            if (tp != 0.0) {
-                var off = (pp - (pi + 180.0)) % 360.0;
-                if (off > 180.0) {
-                    off = off - 360.0;
-                } else if (off <= -180.0) {
-                    off = off + 360.0;
-                }
-                dp = dp + bl.w[i] * off;
-            }
-        }
-    }
-    return sbrdf_dir(bl.theta + dt, sbrdf_wrap360(bl.phi + 180.0) + dp);
-}
-
-// The blended spectral coefficients at (wi, wo): ("Reconstruction", steps 1 to 4 and the
-// lobes), into coef[0..tmax); returns tmax, 0 when rho is 0 (step 1 and 2's refusals).
-fn sbrdf_coefficients(base: u32, wi_in: vec3<f32>, wo_in: vec3<f32>,
-    coef: ptr<function, array<f32, 256>>) -> u32 {
-    let ui4 = sbrdf_upper(wi_in);
-    let uo4 = sbrdf_upper(wo_in);
-    if (ui4.w == 0.0 || uo4.w == 0.0) {
-        return 0u;
-    }
-    let ui = ui4.xyz;
-    var wo = uo4.xyz;
-    let inc_layout = sbrdf_u(base + 3u);
-    let isotropic = inc_layout == 0u;
-    let n_rec = sbrdf_u(base + 8u);
-    let n_theta = sbrdf_u(base + 9u);
-    let n_phi = sbrdf_u(base + 10u);
-    let off_th = base + sbrdf_u(base + 15u);
-    let off_ph = base + sbrdf_u(base + 16u);
-
+// The query's incident side for the unit incident vector ui (z >= 0), into q.
+fn sbrdf_query(base: u32, ui: vec3<f32>, q: ptr<function, SbrdfQuery>) {
+    let inc_layout = sbrdf_u(base + SBRDF_HDR_INCIDENCE);
+    let isotropic = inc_layout == SBRDF_INCIDENCE_ISOTROPIC;
+    (*q).n = 0u;
+    (*q).warp = 0u;
+    (*q).rot = vec2<f32>(1.0, 0.0);
     // theta of the query from its horizontal length and height (atan2, so that it keeps its
     // precision near the normal, where acos(z) does not).
     let r = sqrt(ui.x * ui.x + ui.y * ui.y);
@@ -523,364 +683,437 @@ fn sbrdf_coefficients(base: u32, wi_in: vec3<f32>, wo_in: vec3<f32>,
     var wq = ui;
     var phi_q = 0.0;
     if (isotropic) {
-        // Step 3: turn the query so that wi has azimuth 0, with the azimuth's cosine and sine
-        // taken from the vector (no trigonometry).
-        var c = 1.0;
-        var s = 0.0;
+        // Step 3: the turn that gives wi azimuth 0, its cosine and sine taken from the vector
+        // (no trigonometry).
         if (r > 0.0) {
-            c = ui.x / r;
-            s = ui.y / r;
+            (*q).rot = vec2<f32>(ui.x / r, ui.y / r);
         }
         wq = vec3<f32>(r, 0.0, ui.z);
-        wo = vec3<f32>(c * wo.x + s * wo.y, -s * wo.x + c * wo.y, wo.z);
     } else if (r > 0.0) {
         phi_q = sbrdf_wrap360(sbrdf_atan2_deg(ui.y, ui.x));
     }
-
     // Step 4: the records to blend and the evaluation incidence.
-    var bl: SbrdfBlend;
-    bl.n = 0u;
-    if (inc_layout == 2u) {
-        // Scattered: the nearest stored incidence (largest cosine, the lowest index on ties).
+    if (inc_layout == SBRDF_INCIDENCE_SCATTERED) {
+        // The nearest stored incidence (largest cosine, the lowest index on ties).
+        let n_rec = sbrdf_u(base + SBRDF_HDR_RECORDS);
         var best = 0u;
         var best_cos = -2.0;
         for (var i = 0u; i < n_rec; i = i + 1u) {
             let e = sbrdf_rec(base, i);
-            let cs = dot(sbrdf_dir(sbrdf_f(e), sbrdf_f(e + 1u)), ui);
+            let cs = dot(sbrdf_dir(sbrdf_f(e + SBRDF_REC_THETA_I), sbrdf_f(e + SBRDF_REC_PHI_I)), ui);
             if (cs > best_cos) {
                 best_cos = cs;
                 best = i;
             }
         }
         let e = sbrdf_rec(base, best);
-        bl.n = 1u;
-        bl.rec[0] = best;
-        bl.w[0] = 1.0;
-        bl.theta = sbrdf_f(e);
-        bl.phi = sbrdf_f(e + 1u);
-        bl.wi = sbrdf_dir(bl.theta, bl.phi);
+        (*q).n = 1u;
+        (*q).rec[0] = best;
+        (*q).w[0] = 1.0;
+        (*q).theta = sbrdf_f(e + SBRDF_REC_THETA_I);
+        (*q).phi = sbrdf_f(e + SBRDF_REC_PHI_I);
+        (*q).wi = sbrdf_dir((*q).theta, (*q).phi);
     } else {
-        let th0 = sbrdf_f(off_th);
-        let th1 = sbrdf_f(off_th + n_theta - 1u);
-        bl.theta = clamp(theta_q, th0, th1);
+        let n_theta = sbrdf_u(base + SBRDF_HDR_THETAS);
+        let n_phi = sbrdf_u(base + SBRDF_HDR_PHIS);
+        let off_th = base + sbrdf_u(base + SBRDF_HDR_OFF_THETAS);
+        let off_ph = base + sbrdf_u(base + SBRDF_HDR_OFF_PHIS);
+        let theta = clamp(theta_q, sbrdf_f(off_th), sbrdf_f(off_th + n_theta - 1u));
+        (*q).theta = theta;
         let bt = sbrdf_bracket(off_th, n_theta, theta_q);
         let i = bitcast<u32>(bt.x);
         let t = bt.y;
         let i2 = min(i + 1u, n_theta - 1u);
         if (isotropic) {
-            sbrdf_blend_add(&bl, i, 1.0 - t);
-            sbrdf_blend_add(&bl, i2, t);
-            bl.phi = 0.0;
+            sbrdf_push(q, i, 1.0 - t);
+            sbrdf_push(q, i2, t);
+            (*q).phi = 0.0;
             // theta unclamped: the evaluation direction is the query's own vector (more
             // precise than rebuilding it from an f32 angle).
-            bl.wi = select(sbrdf_dir(bl.theta, 0.0), wq, bl.theta == theta_q);
+            (*q).wi = select(sbrdf_dir(theta, 0.0), wq, theta == theta_q);
         } else {
             var j = 0u;
             var j2 = 0u;
             var u = 0.0;
-            let p = phi_q;
             if (n_phi > 1u) {
                 let p0 = sbrdf_f(off_ph);
                 let p1 = sbrdf_f(off_ph + n_phi - 1u);
-                if (p < p0 || p >= p1) {
+                if (phi_q < p0 || phi_q >= p1) {
                     j = n_phi - 1u;
                     j2 = 0u;
-                    u = sbrdf_wrap360(p - p1) / (p0 + 360.0 - p1);
+                    u = sbrdf_wrap360(phi_q - p1) / (p0 + 360.0 - p1);
                 } else {
-                    let bp = sbrdf_bracket(off_ph, n_phi, p);
+                    let bp = sbrdf_bracket(off_ph, n_phi, phi_q);
                     j = bitcast<u32>(bp.x);
                     u = bp.y;
                     j2 = j + 1u;
                 }
             }
-            sbrdf_blend_add(&bl, i * n_phi + j, (1.0 - t) * (1.0 - u));
-            sbrdf_blend_add(&bl, i * n_phi + j2, (1.0 - t) * u);
-            sbrdf_blend_add(&bl, i2 * n_phi + j, t * (1.0 - u));
-            sbrdf_blend_add(&bl, i2 * n_phi + j2, t * u);
+            sbrdf_push(q, i * n_phi + j, (1.0 - t) * (1.0 - u));
+            sbrdf_push(q, i * n_phi + j2, (1.0 - t) * u);
+            sbrdf_push(q, i2 * n_phi + j, t * (1.0 - u));
+            sbrdf_push(q, i2 * n_phi + j2, t * u);
+            if ((*q).n == 0u) {
+                sbrdf_push(q, i * n_phi + j, 1.0); // as the CPU (no weight > 0)
+            }
             if (n_phi == 1u) {
-                bl.phi = sbrdf_f(off_ph); // a single stored azimuth is clamped to, like theta
-                bl.wi = sbrdf_dir(bl.theta, bl.phi);
+                (*q).phi = sbrdf_f(off_ph); // a single stored azimuth is clamped to, like theta
+                (*q).wi = sbrdf_dir(theta, (*q).phi);
             } else {
-                bl.phi = phi_q;
-                bl.wi = select(sbrdf_dir(bl.theta, bl.phi), ui, bl.theta == theta_q);
+                (*q).phi = phi_q;
+                (*q).wi = select(sbrdf_dir(theta, phi_q), ui, theta == theta_q);
             }
         }
-        sbrdf_blend_finish(&bl);
     }
-    let wis = bl.wi;
-
-    // The blended records' largest term count, SH level and lobe count.
+    // The blended records' largest term and lobe counts.
     var tmax = 1u;
-    var lmax = 0u;
     var mmax = 0u;
     for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-        if (b < bl.n) {
-            let e = sbrdf_rec(base, bl.rec[b]);
-            lmax = max(lmax, sbrdf_u(e + 4u));
-            tmax = max(tmax, sbrdf_u(e + 5u));
-            mmax = max(mmax, sbrdf_u(e + 6u));
-        }
-    }
-    tmax = min(tmax, SBRDF_MAX_TERMS);
-    lmax = min(lmax, 20u);
-    mmax = min(mmax, SBRDF_MAX_LOBES);
-    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-        if (k >= tmax) {
+        if (b >= (*q).n) {
             break;
         }
-        (*coef)[k] = 0.0;
+        let e = sbrdf_rec(base, (*q).rec[b]);
+        tmax = max(tmax, sbrdf_u(e + SBRDF_REC_TERMS));
+        mmax = max(mmax, sbrdf_u(e + SBRDF_REC_LOBES));
     }
-
-    // The SH background: Y once at the largest level (a lower level's Y are its prefix).
-    var y: array<f32, 441>;
-    sbrdf_sh_eval(lmax, wo, &y);
-    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-        if (b >= bl.n) {
-            break;
-        }
-        let e = sbrdf_rec(base, bl.rec[b]);
-        let level = sbrdf_u(e + 4u);
-        let terms = sbrdf_u(e + 5u);
-        let enc = sbrdf_u(e + 7u);
-        let scale = sbrdf_f(e + 8u);
-        let o = base + sbrdf_u(e + 9u);
-        let pr = (level + 1u) * (level + 1u);
-        for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-            if (k >= terms) {
-                break;
-            }
-            var acc = 0.0;
-            for (var j = 0u; j < SBRDF_MAX_SH; j = j + 1u) {
-                if (j >= pr) {
-                    break;
-                }
-                acc = acc + sbrdf_value(o, k * pr + j, enc, scale) * y[j];
-            }
-            (*coef)[k] = (*coef)[k] + bl.w[b] * acc;
-        }
-    }
-
-    // The lobes, by position ("Lobes by position").
-    for (var li = 0u; li < SBRDF_MAX_LOBES; li = li + 1u) {
-        if (li >= mmax) {
-            break;
-        }
-        // Shared: more than one record blended, each with a lobe at li, all of one kind.
-        var shared_kind = 0u;
-        if (bl.n > 1u) {
-            shared_kind = 0xffffffffu;
-            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-                if (b < bl.n) {
-                    let e = sbrdf_rec(base, bl.rec[b]);
-                    var kind = 0u;
-                    if (li < sbrdf_u(e + 6u)) {
-                        kind = sbrdf_u(base + sbrdf_u(e + 10u) + 3u * li);
-                    }
-                    if (kind == 0u || (shared_kind != 0xffffffffu && kind != shared_kind)) {
-                        shared_kind = 0u;
-                        break;
-                    }
-                    shared_kind = kind;
-                }
-            }
-        }
-        if (shared_kind != 0u) {
-            sbrdf_add_shared_lobe(base, bl, isotropic, shared_kind, li, tmax, wis, wo, coef);
-        } else {
-            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-                if (b >= bl.n) {
-                    break;
-                }
-                let e = sbrdf_rec(base, bl.rec[b]);
-                if (li < sbrdf_u(e + 6u)) {
-                    sbrdf_add_lobe(base, e, li, bl.w[b], wis, wo, coef);
-                }
-            }
-        }
-    }
-    return tmax;
+    (*q).tmax = min(tmax, SBRDF_MAX_TERMS);
+    (*q).mmax = min(mmax, SBRDF_MAX_LOBES);
 }
 
-// One record's lobe li, times the blending weight wgt, added to coef.
-fn sbrdf_add_lobe(base: u32, e: u32, li: u32, wgt: f32, wis: vec3<f32>, w: vec3<f32>,
-    coef: ptr<function, array<f32, 256>>) {
-    let terms = sbrdf_u(e + 5u);
-    let enc = sbrdf_u(e + 7u);
-    let scale = sbrdf_f(e + 8u);
-    let lt = base + sbrdf_u(e + 10u) + 3u * li;
-    let kind = sbrdf_u(lt);
-    let amp = base + sbrdf_u(lt + 1u);
-    let par = base + sbrdf_u(lt + 2u);
-    if (kind == 1u || kind == 4u) {
-        let peak = sbrdf_rec_peak(e);
-        if (kind == 1u) {
-            let a = sbrdf_angle(w, peak);
-            let a2 = a * a;
-            for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-                if (k >= terms) {
-                    break;
-                }
-                let g = exp(-a2 / sbrdf_f(par + k));
-                (*coef)[k] = (*coef)[k] + wgt * sbrdf_value(amp, k, enc, scale) * g;
-            }
-        } else {
-            let f = sbrdf_cos_power(w, peak, sbrdf_f(par));
-            for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-                if (k >= terms) {
-                    break;
-                }
-                (*coef)[k] = (*coef)[k] + wgt * sbrdf_value(amp, k, enc, scale) * f;
-            }
-        }
+// The query of an evaluation at unit ui, uo: sbrdf_query's incident side, or for warped
+// tables (whose tables follow the viewer's direction, so that the query depends on both) the
+// section's query, no records, tmax = K.
+fn sbrdf_query_pair(base: u32, ui: vec3<f32>, uo: vec3<f32>, q: ptr<function, SbrdfQuery>) {
+    let w = sbrdf_warp_section(base);
+    if (w == 0u) {
+        sbrdf_query(base, ui, q);
         return;
     }
-    var q = vec3<f32>(0.0);
-    if (kind == 5u) {
-        q = vec3<f32>(sbrdf_f(par + 3u), sbrdf_f(par + 4u), sbrdf_f(par + 5u));
-    }
-    let p = vec3<f32>(sbrdf_f(par), sbrdf_f(par + 1u), sbrdf_f(par + 2u));
-    let v = sbrdf_microfacet(kind, p, q, wis, w);
-    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-        if (k >= terms) {
-            break;
-        }
-        let s = v.x * sbrdf_value(amp, k, enc, scale)
-            + v.y * sbrdf_value(amp, terms + k, enc, scale)
-            + v.z * sbrdf_value(amp, 2u * terms + k, enc, scale)
-            + v.w * sbrdf_value(amp, 3u * terms + k, enc, scale);
-        (*coef)[k] = (*coef)[k] + wgt * s;
-    }
+    (*q).n = 0u;
+    (*q).rot = vec2<f32>(1.0, 0.0);
+    (*q).wi = ui;
+    (*q).tmax = min(sbrdf_u(w + SBRDF_WARP_K), SBRDF_MAX_TERMS);
+    (*q).mmax = 0u;
+    (*q).warp = w;
+    sbrdf_warp_query(w, ui, uo, q);
 }
 
-// Sum over the blended records of weight times amplitude (variant j, term k) of lobe li:
-// the blended amplitude ("Lobes by position"); a record with fewer terms adds 0.
-fn sbrdf_shared_amp(base: u32, bl: SbrdfBlend, li: u32, j: u32, k: u32) -> f32 {
-    var a = 0.0;
-    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-        if (b < bl.n) {
-            let e = sbrdf_rec(base, bl.rec[b]);
-            let terms = sbrdf_u(e + 5u);
-            if (k < terms) {
-                let lt = base + sbrdf_u(e + 10u) + 3u * li;
-                let amp = base + sbrdf_u(lt + 1u);
-                a = a + bl.w[b] * sbrdf_value(amp, j * terms + k, sbrdf_u(e + 7u), sbrdf_f(e + 8u));
-            }
-        }
+// A local-frame vector in the records' frame, and back.
+fn sbrdf_to_records(q: ptr<function, SbrdfQuery>, v: vec3<f32>) -> vec3<f32> {
+    let c = (*q).rot;
+    return vec3<f32>(c.x * v.x + c.y * v.y, -c.y * v.x + c.x * v.y, v.z);
+}
+
+fn sbrdf_from_records(q: ptr<function, SbrdfQuery>, v: vec3<f32>) -> vec3<f32> {
+    let c = (*q).rot;
+    return vec3<f32>(c.x * v.x - c.y * v.y, c.y * v.x + c.x * v.y, v.z);
+}
+
+// ------------------------------------------------------------------ lobes by position
+
+// The peak direction of the record whose entry is at e.
+fn sbrdf_rec_peak(e: u32) -> vec3<f32> {
+    return sbrdf_dir(sbrdf_f(e + SBRDF_REC_THETA_P), sbrdf_f(e + SBRDF_REC_PHI_P));
+}
+
+// The kind of lobe li when every blended record (more than one) has a lobe of that one kind
+// there ("Lobes by position": shared); 0 otherwise.
+fn sbrdf_shared_kind(base: u32, q: ptr<function, SbrdfQuery>, li: u32) -> u32 {
+    if ((*q).n < 2u) {
+        return 0u;
     }
-    return a;
+    var shared_kind = 0xffffffffu;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b >= (*q).n) {
+            break;
+        }
+        let e = sbrdf_rec(base, (*q).rec[b]);
+        var kind = 0u;
+        if (li < sbrdf_u(e + SBRDF_REC_LOBES)) {
+            kind = sbrdf_u(sbrdf_lobe(base, e, li) + SBRDF_LOBE_KIND);
+        }
+        if (kind == 0u || (shared_kind != 0xffffffffu && kind != shared_kind)) {
+            return 0u;
+        }
+        shared_kind = kind;
+    }
+    return shared_kind;
 }
 
 // Parameter i of lobe li of blended record b.
-fn sbrdf_shared_par(base: u32, bl: SbrdfBlend, b: u32, li: u32, i: u32) -> f32 {
-    let e = sbrdf_rec(base, bl.rec[b]);
-    let lt = base + sbrdf_u(e + 10u) + 3u * li;
-    return sbrdf_f(base + sbrdf_u(lt + 2u) + i);
+fn sbrdf_shared_par(base: u32, q: ptr<function, SbrdfQuery>, b: u32, li: u32, i: u32) -> f32 {
+    let lt = sbrdf_lobe(base, sbrdf_rec(base, (*q).rec[b]), li);
+    return sbrdf_f(base + sbrdf_u(lt + SBRDF_LOBE_OFF_PARAMETERS) + i);
 }
 
 // Weighted geometric mean of parameter i over the blended records: exp(sum w log x).
-fn sbrdf_shared_geo(base: u32, bl: SbrdfBlend, li: u32, i: u32) -> f32 {
+fn sbrdf_shared_geo(base: u32, q: ptr<function, SbrdfQuery>, li: u32, i: u32) -> f32 {
     var s = 0.0;
     for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-        if (b < bl.n) {
-            s = s + bl.w[b] * sbrdf_ln(sbrdf_shared_par(base, bl, b, li, i));
+        if (b < (*q).n) {
+            s = s + (*q).w[b] * sbrdf_ln(sbrdf_shared_par(base, q, b, li, i));
         }
     }
     return exp(s);
 }
 
 // Weighted arithmetic mean of parameter i over the blended records.
-fn sbrdf_shared_lin(base: u32, bl: SbrdfBlend, li: u32, i: u32) -> f32 {
+fn sbrdf_shared_lin(base: u32, q: ptr<function, SbrdfQuery>, li: u32, i: u32) -> f32 {
     var s = 0.0;
     for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-        if (b < bl.n) {
-            s = s + bl.w[b] * sbrdf_shared_par(base, bl, b, li, i);
+        if (b < (*q).n) {
+            s = s + (*q).w[b] * sbrdf_shared_par(base, q, b, li, i);
         }
     }
     return s;
 }
 
-// A lobe present, of one kind, in every blended record ("Lobes by position"): amplitudes
-// blended linearly, shape parameters as the spec says, evaluated once.
-fn sbrdf_add_shared_lobe(base: u32, bl: SbrdfBlend, isotropic: bool, kind: u32, li: u32,
-    tmax: u32, wis: vec3<f32>, w: vec3<f32>, coef: ptr<function, array<f32, 256>>) {
-    if (kind == 1u || kind == 4u) {
-        let peak = sbrdf_blended_peak(base, bl, isotropic);
-        if (kind == 1u) {
-            let a = sbrdf_angle(w, peak);
-            let a2 = a * a;
-            for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-                if (k >= tmax) {
-                    break;
-                }
-                // The width of term k: the geometric mean over the records that have term k,
-                // their weights renormalised.
-                var s = 0.0;
-                var ws = 0.0;
-                for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-                    if (b < bl.n && k < sbrdf_u(sbrdf_rec(base, bl.rec[b]) + 5u)) {
-                        s = s + bl.w[b] * sbrdf_ln(sbrdf_shared_par(base, bl, b, li, k));
-                        ws = ws + bl.w[b];
-                    }
-                }
-                let width = exp(s / ws);
-                (*coef)[k] = (*coef)[k] + sbrdf_shared_amp(base, bl, li, 0u, k) * exp(-a2 / width);
-            }
-        } else {
-            let f = sbrdf_cos_power(w, peak, sbrdf_shared_geo(base, bl, li, 0u));
-            for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-                if (k >= tmax) {
-                    break;
-                }
-                (*coef)[k] = (*coef)[k] + sbrdf_shared_amp(base, bl, li, 0u, k) * f;
-            }
+// The axis angle psi (parameter 5 of kind 5) of lobe li blended as an axis: the doubled angles'
+// weighted mean, halved back to [0, 180); the first record's psi when that mean vanishes.
+fn sbrdf_shared_axis(base: u32, q: ptr<function, SbrdfQuery>, li: u32) -> f32 {
+    var x = 0.0;
+    var yv = 0.0;
+    var tw = 0.0;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < (*q).n) {
+            let cs = sbrdf_sincos_deg(2.0 * sbrdf_shared_par(base, q, b, li, 5u));
+            x = x + (*q).w[b] * cs.y;
+            yv = yv + (*q).w[b] * cs.x;
+            tw = tw + abs((*q).w[b]);
         }
-        return;
     }
-    var p = vec3<f32>(0.0);
-    var q = vec3<f32>(0.0);
-    if (kind == 5u) {
-        p = vec3<f32>(sbrdf_shared_geo(base, bl, li, 0u), sbrdf_shared_geo(base, bl, li, 1u),
-            sbrdf_shared_geo(base, bl, li, 2u));
-        // psi blended as an axis: the doubled angles' weighted mean, halved back to [0, 180);
-        // the first record's psi when that mean vanishes.
-        var x = 0.0;
-        var yv = 0.0;
-        var tw = 0.0;
-        for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-            if (b < bl.n) {
-                let cs = sbrdf_sincos_deg(2.0 * sbrdf_shared_par(base, bl, b, li, 5u));
-                x = x + bl.w[b] * cs.y;
-                yv = yv + bl.w[b] * cs.x;
-                tw = tw + abs(bl.w[b]);
-            }
+    var psi = sbrdf_shared_par(base, q, 0u, li, 5u);
+    if (sqrt(x * x + yv * yv) > 1e-9 * tw) {
+        psi = 0.5 * sbrdf_atan2_deg(yv, x);
+        if (psi < 0.0) {
+            psi = psi + 180.0;
         }
-        var psi = sbrdf_shared_par(base, bl, 0u, li, 5u);
-        if (sqrt(x * x + yv * yv) > 1e-9 * tw) {
-            psi = 0.5 * sbrdf_atan2_deg(yv, x);
-            if (psi < 0.0) {
-                psi = psi + 180.0;
-            }
-            if (psi >= 180.0) {
-                psi = 0.0;
-            }
+        if (psi >= 180.0) {
+            psi = 0.0;
         }
-        q = vec3<f32>(sbrdf_shared_lin(base, bl, li, 3u), sbrdf_shared_lin(base, bl, li, 4u), psi);
-    } else {
-        p = vec3<f32>(sbrdf_shared_geo(base, bl, li, 0u), sbrdf_shared_geo(base, bl, li, 1u),
-            sbrdf_shared_lin(base, bl, li, 2u));
     }
-    let v = sbrdf_microfacet(kind, p, q, wis, w);
-    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-        if (k >= tmax) {
-            break;
-        }
-        let s = v.x * sbrdf_shared_amp(base, bl, li, 0u, k) + v.y * sbrdf_shared_amp(base, bl, li, 1u, k)
-            + v.z * sbrdf_shared_amp(base, bl, li, 2u, k) + v.w * sbrdf_shared_amp(base, bl, li, 3u, k);
-        (*coef)[k] = (*coef)[k] + s;
-    }
+    return psi;
 }
 
-// ------------------------------------------------------------------ the spectrum
+// "Blended peak direction" of a lobe shared by the blended records (kinds 1 and 4).
+// Isotropic files: the weighted sum of the records' peak directions, normalised; vec4(0) in .w
+// when it cannot be (zero or not finite), vec4(p, 1) otherwise.
+fn sbrdf_blended_peak_sum(base: u32, q: ptr<function, SbrdfQuery>) -> vec4<f32> {
+    var v = vec3<f32>(0.0);
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < (*q).n) {
+            v = v + (*q).w[b] * sbrdf_rec_peak(sbrdf_rec(base, (*q).rec[b]));
+        }
+    }
+    let n = length(v);
+    if (n != 0.0 && sbrdf_finite(n)) {
+        return vec4<f32>(v / n, 1.0);
+    }
+    return vec4<f32>(0.0);
+}
+
+fn sbrdf_blended_peak(base: u32, q: ptr<function, SbrdfQuery>) -> vec3<f32> {
+    if (sbrdf_u(base + SBRDF_HDR_INCIDENCE) == SBRDF_INCIDENCE_ISOTROPIC) {
+        let p = sbrdf_blended_peak_sum(base, q);
+        if (p.w != 0.0) {
+            return p.xyz;
+        }
+    }
+    var dt = 0.0;
+    var dp = 0.0;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < (*q).n) {
+            let e = sbrdf_rec(base, (*q).rec[b]);
+            let ti = sbrdf_f(e + SBRDF_REC_THETA_I);
+            let pi = sbrdf_f(e + SBRDF_REC_PHI_I);
+            let tp = sbrdf_f(e + SBRDF_REC_THETA_P);
+            let pp = sbrdf_f(e + SBRDF_REC_PHI_P);
+            dt = dt + (*q).w[b] * (tp - ti);
+            if (tp != 0.0) {
+                var off = (pp - (pi + 180.0)) % 360.0;
+                if (off > 180.0) {
+                    off = off - 360.0;
+                } else if (off <= -180.0) {
+                    off = off + 360.0;
+                }
+                dp = dp + (*q).w[b] * off;
+            }
+        }
+    }
+    return sbrdf_dir((*q).theta + dt, sbrdf_wrap360((*q).phi + 180.0) + dp);
+}
+
+// Terms k0 .. k0 + 3 of one record's lobe li at the evaluation incidence wis and the outgoing
+// w (records' frame): its amplitudes times the lobe's shape, 0 past the record's terms.
+fn sbrdf_lobe4(base: u32, e: u32, li: u32, wis: vec3<f32>, w: vec3<f32>, k0: u32) -> vec4<f32> {
+    let terms = sbrdf_u(e + SBRDF_REC_TERMS);
+    let n = sbrdf_chunk(k0, terms);
+    if (n == 0u) {
+        return vec4<f32>(0.0);
+    }
+    let enc = sbrdf_u(e + SBRDF_REC_ENCODING);
+    let scale = sbrdf_f(e + SBRDF_REC_SCALE);
+    let lt = sbrdf_lobe(base, e, li);
+    let kind = sbrdf_u(lt + SBRDF_LOBE_KIND);
+    let amp = base + sbrdf_u(lt + SBRDF_LOBE_OFF_AMPLITUDES);
+    let par = base + sbrdf_u(lt + SBRDF_LOBE_OFF_PARAMETERS);
+    if (kind == 1u || kind == 4u) {
+        let peak = sbrdf_rec_peak(e);
+        let a = sbrdf_values4(amp, k0, 1u, n, enc, scale);
+        if (kind == 1u) {
+            let angle = sbrdf_angle(w, peak);
+            return a * sbrdf_gauss4(angle * angle, par, k0, n);
+        }
+        return a * sbrdf_cos_power(w, peak, sbrdf_f(par));
+    }
+    // Microfacet kinds 2, 3 and 5: (b, c, a) or (bx, by, c, ax, ay, psi), four variants.
+    var q = vec3<f32>(0.0);
+    if (kind == 5u) {
+        q = vec3<f32>(sbrdf_f(par + 3u), sbrdf_f(par + 4u), sbrdf_f(par + 5u));
+    }
+    let p = vec3<f32>(sbrdf_f(par), sbrdf_f(par + 1u), sbrdf_f(par + 2u));
+    let v = sbrdf_microfacet(kind, p, q, wis, w);
+    return v.x * sbrdf_values4(amp, k0, 1u, n, enc, scale)
+        + v.y * sbrdf_values4(amp, terms + k0, 1u, n, enc, scale)
+        + v.z * sbrdf_values4(amp, 2u * terms + k0, 1u, n, enc, scale)
+        + v.w * sbrdf_values4(amp, 3u * terms + k0, 1u, n, enc, scale);
+}
+
+// Terms k0 .. k0 + 3 of the blended amplitudes (variant j) of the shared lobe li: the sum over
+// the records of weight times amplitude ("Lobes by position"); a record with fewer terms adds 0.
+fn sbrdf_shared_amp4(base: u32, q: ptr<function, SbrdfQuery>, li: u32, j: u32, k0: u32) -> vec4<f32> {
+    var a = vec4<f32>(0.0);
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < (*q).n) {
+            let e = sbrdf_rec(base, (*q).rec[b]);
+            let terms = sbrdf_u(e + SBRDF_REC_TERMS);
+            let lt = sbrdf_lobe(base, e, li);
+            let amp = base + sbrdf_u(lt + SBRDF_LOBE_OFF_AMPLITUDES);
+            a = a + (*q).w[b] * sbrdf_values4(amp, j * terms + k0, 1u, sbrdf_chunk(k0, terms),
+                sbrdf_u(e + SBRDF_REC_ENCODING), sbrdf_f(e + SBRDF_REC_SCALE));
+        }
+    }
+    return a;
+}
+
+// ln of the blended width of each of the terms k0 .. k0 + 3 of the shared angle Gaussian li:
+// the weighted mean of the logarithms over the records that have the term, their weights
+// renormalised (lanes past T* are not used).
+fn sbrdf_shared_ln_widths4(base: u32, q: ptr<function, SbrdfQuery>, li: u32, k0: u32) -> vec4<f32> {
+    var s = vec4<f32>(0.0);
+    var ws = vec4<f32>(0.0);
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < (*q).n) {
+            let e = sbrdf_rec(base, (*q).rec[b]);
+            let nb = sbrdf_chunk(k0, sbrdf_u(e + SBRDF_REC_TERMS));
+            let par = base + sbrdf_u(sbrdf_lobe(base, e, li) + SBRDF_LOBE_OFF_PARAMETERS) + k0;
+            let wb = (*q).w[b];
+            if (nb > 0u) {
+                s.x = s.x + wb * sbrdf_ln(sbrdf_f(par));
+                ws.x = ws.x + wb;
+            }
+            if (nb > 1u) {
+                s.y = s.y + wb * sbrdf_ln(sbrdf_f(par + 1u));
+                ws.y = ws.y + wb;
+            }
+            if (nb > 2u) {
+                s.z = s.z + wb * sbrdf_ln(sbrdf_f(par + 2u));
+                ws.z = ws.z + wb;
+            }
+            if (nb > 3u) {
+                s.w = s.w + wb * sbrdf_ln(sbrdf_f(par + 3u));
+                ws.w = ws.w + wb;
+            }
+        }
+    }
+    return s / ws;
+}
+
+// exp(-a2 / exp(ln_w)) at the first n lanes, 0 in the others: an angle Gaussian of widths
+// exp(ln_w).
+fn sbrdf_gauss_ln4(a2: f32, ln_w: vec4<f32>, n: u32) -> vec4<f32> {
+    var g = vec4<f32>(0.0);
+    if (n > 0u) {
+        g.x = exp(-a2 / exp(ln_w.x));
+    }
+    if (n > 1u) {
+        g.y = exp(-a2 / exp(ln_w.y));
+    }
+    if (n > 2u) {
+        g.z = exp(-a2 / exp(ln_w.z));
+    }
+    if (n > 3u) {
+        g.w = exp(-a2 / exp(ln_w.w));
+    }
+    return g;
+}
+
+// Terms k0 .. k0 + 3 of a shared microfacet lobe li whose four variants' values are v: the
+// variants' blended amplitudes weighted by them.
+fn sbrdf_shared_variants4(base: u32, q: ptr<function, SbrdfQuery>, li: u32, k0: u32, v: vec4<f32>) -> vec4<f32> {
+    return v.x * sbrdf_shared_amp4(base, q, li, 0u, k0) + v.y * sbrdf_shared_amp4(base, q, li, 1u, k0)
+        + v.z * sbrdf_shared_amp4(base, q, li, 2u, k0) + v.w * sbrdf_shared_amp4(base, q, li, 3u, k0);
+}
+
+// Terms k0 .. k0 + 3 of the lobe li shared by every blended record, of the given kind:
+// amplitudes blended linearly, shape parameters as "Lobes by position" says, evaluated once.
+fn sbrdf_shared_lobe4(base: u32, q: ptr<function, SbrdfQuery>, kind: u32, li: u32, w: vec3<f32>,
+    k0: u32) -> vec4<f32> {
+    if (kind == 1u) {
+        let angle = sbrdf_angle(w, sbrdf_blended_peak(base, q));
+        let g = sbrdf_gauss_ln4(angle * angle, sbrdf_shared_ln_widths4(base, q, li, k0),
+            sbrdf_chunk(k0, (*q).tmax));
+        return sbrdf_shared_amp4(base, q, li, 0u, k0) * g;
+    }
+    if (kind == 4u) {
+        let f = sbrdf_cos_power(w, sbrdf_blended_peak(base, q), sbrdf_shared_geo(base, q, li, 0u));
+        return sbrdf_shared_amp4(base, q, li, 0u, k0) * f;
+    }
+    if (kind == 5u) {
+        let p = vec3<f32>(sbrdf_shared_geo(base, q, li, 0u), sbrdf_shared_geo(base, q, li, 1u),
+            sbrdf_shared_geo(base, q, li, 2u));
+        let pq = vec3<f32>(sbrdf_shared_lin(base, q, li, 3u), sbrdf_shared_lin(base, q, li, 4u),
+            sbrdf_shared_axis(base, q, li));
+        return sbrdf_shared_variants4(base, q, li, k0, sbrdf_microfacet(kind, p, pq, (*q).wi, w));
+    }
+    let p = vec3<f32>(sbrdf_shared_geo(base, q, li, 0u), sbrdf_shared_geo(base, q, li, 1u),
+        sbrdf_shared_lin(base, q, li, 2u));
+    return sbrdf_shared_variants4(base, q, li, k0, sbrdf_microfacet(kind, p, vec3<f32>(0.0), (*q).wi, w));
+}
+
+// ------------------------------------------------------------------ the records' series
+
+// Terms k0 .. k0 + 3 of the blended spectral coefficients at the outgoing direction wo in the
+// records' frame ("Reconstruction": the SH background, then the lobes by position), 0 past T*.
+fn sbrdf_coef4(base: u32, q: ptr<function, SbrdfQuery>, wo: vec3<f32>, k0: u32) -> vec4<f32> {
+    var c = vec4<f32>(0.0);
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b >= (*q).n) {
+            break;
+        }
+        c = c + (*q).w[b] * sbrdf_sh4(base, sbrdf_rec(base, (*q).rec[b]), wo, k0);
+    }
+    for (var li = 0u; li < SBRDF_MAX_LOBES; li = li + 1u) {
+        if (li >= (*q).mmax) {
+            break;
+        }
+        let kind = sbrdf_shared_kind(base, q, li);
+        if (kind != 0u) {
+            c = c + sbrdf_shared_lobe4(base, q, kind, li, wo, k0);
+            continue;
+        }
+        for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+            if (b >= (*q).n) {
+                break;
+            }
+            let e = sbrdf_rec(base, (*q).rec[b]);
+            if (li < sbrdf_u(e + SBRDF_REC_LOBES)) {
+                c = c + (*q).w[b] * sbrdf_lobe4(base, e, li, (*q).wi, wo, k0);
+            }
+        }
+    }
+    return c;
+}
 
 // k u mod 1 for an integer k < 2^12 and u in [0, 1], accurate to the rounding of u itself:
 // u is split into a head of 12 bits (k times it is exact in f32, so its fraction is exact)
@@ -892,84 +1125,147 @@ fn sbrdf_frac_mul(k: f32, u: f32) -> f32 {
     return fract(fract(k * head) + k * tail);
 }
 
-// sum_k coef[k] B_k(lambda) ("Spectral basis"), before the clamp at 0.
-fn sbrdf_series(base: u32, coef: ptr<function, array<f32, 256>>, tmax: u32, lambda: f32) -> f32 {
-    let basis = sbrdf_u(base + 4u);
-    var v = 0.0;
+
+// B_k(lambda) of basis `basis` for term k ("Spectral basis"): tabulated (3) from row k of the
+// basis table (absolute word tab, nw wavelengths a row) between wavelengths i and i + 1 at
+// fraction f; Fourier (1) and cosine (2) at
+// u = (lambda - lambda_min) / (lambda_max - lambda_min) in [0, 1].
+fn sbrdf_basis_term(basis: u32, tab: u32, nw: u32, k: u32, i: u32, f: f32, u: f32) -> f32 {
+    if (basis == 3u) {
+        let row = tab + k * nw;
+        var bk = sbrdf_f(row + i);
+        if (f != 0.0) {
+            bk = bk + f * (sbrdf_f(row + i + 1u) - bk);
+        }
+        return bk;
+    }
+    if (basis == 1u) {
+        // Fourier: 1/2, cos(2 pi j u), sin(2 pi j u), ... with the phase j u reduced in turns.
+        if (k == 0u) {
+            return 0.5;
+        }
+        let cs = sbrdf_sincos_turns(sbrdf_frac_mul(f32((k + 1u) / 2u), u));
+        return select(cs.x, cs.y, (k & 1u) == 1u);
+    }
+    // Cosine: cos(pi k u) = cos(2 pi (k u / 2)); k u / 2 in turns, reduced exactly.
+    return sbrdf_sincos_turns(sbrdf_frac_mul(f32(k), 0.5 * u)).y;
+}
+
+// B_k(lambda) for the terms k = k0 .. k0 + 3 below tmax, 0 past them.
+fn sbrdf_basis4(base: u32, k0: u32, tmax: u32, lambda: f32) -> vec4<f32> {
+    let basis = sbrdf_u(base + SBRDF_HDR_BASIS);
+    let nw = sbrdf_u(base + SBRDF_HDR_WAVES);
+    let tab = base + sbrdf_u(base + SBRDF_HDR_OFF_BASIS_TABLE);
+    var i = 0u;
+    var f = 0.0;
+    var u = 0.0;
     if (basis == 3u) {
         // Tabulated: linear between the wavelengths, held at the ends.
-        let nw = sbrdf_u(base + 7u);
-        let ow = base + sbrdf_u(base + 13u);
-        let tab = base + sbrdf_u(base + 14u);
-        var i = 0u;
-        var f = 0.0;
+        let ow = base + sbrdf_u(base + SBRDF_HDR_OFF_WAVES);
         if (nw > 1u && lambda > sbrdf_f(ow)) {
             let bw = sbrdf_bracket(ow, nw, lambda);
             i = bitcast<u32>(bw.x);
             f = bw.y;
         }
-        for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-            if (k >= tmax) {
-                break;
-            }
-            var bk = sbrdf_f(tab + k * nw + i);
-            if (f != 0.0) {
-                bk = bk + f * (sbrdf_f(tab + k * nw + i + 1u) - bk);
-            }
-            v = v + (*coef)[k] * bk;
+    } else {
+        let lo = sbrdf_f(base + SBRDF_HDR_LAMBDA_MIN);
+        let hi = sbrdf_f(base + SBRDF_HDR_LAMBDA_MAX);
+        if (hi > lo) {
+            u = clamp((clamp(lambda, lo, hi) - lo) / (hi - lo), 0.0, 1.0);
         }
-        return v;
     }
-    let lo = sbrdf_f(base + 11u);
-    let hi = sbrdf_f(base + 12u);
-    let lc = clamp(lambda, lo, hi);
-    var u = 0.0; // (lambda - lo) / (hi - lo) in [0, 1]
-    if (hi > lo) {
-        u = clamp((lc - lo) / (hi - lo), 0.0, 1.0);
+    let n = sbrdf_chunk(k0, tmax);
+    var b = vec4<f32>(0.0);
+    if (n > 0u) {
+        b.x = sbrdf_basis_term(basis, tab, nw, k0, i, f, u);
     }
-    if (basis == 1u) {
-        // Fourier: 1/2, cos(2 pi j u), sin(2 pi j u), ... with the phase j u reduced in turns.
-        v = 0.5 * (*coef)[0];
-        for (var k = 1u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-            if (k >= tmax) {
-                break;
-            }
-            let j = f32((k + 1u) / 2u);
-            let cs = sbrdf_sincos_turns(sbrdf_frac_mul(j, u));
-            v = v + (*coef)[k] * select(cs.x, cs.y, (k & 1u) == 1u);
-        }
-        return v;
+    if (n > 1u) {
+        b.y = sbrdf_basis_term(basis, tab, nw, k0 + 1u, i, f, u);
     }
-    // Cosine: cos(pi k u) = cos(2 pi (k u / 2)); k u / 2 in turns, reduced exactly.
-    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-        if (k >= tmax) {
-            break;
-        }
-        let cs = sbrdf_sincos_turns(sbrdf_frac_mul(f32(k), 0.5 * u));
-        v = v + (*coef)[k] * cs.y;
+    if (n > 2u) {
+        b.z = sbrdf_basis_term(basis, tab, nw, k0 + 2u, i, f, u);
     }
-    return v;
+    if (n > 3u) {
+        b.w = sbrdf_basis_term(basis, tab, nw, k0 + 3u, i, f, u);
+    }
+    return b;
 }
 
 // ------------------------------------------------------------------ the factor model
 
 // The model section of kind 1 (spec/GPU_LAYOUT.md, "Model section"; spec/EVALUATION.md, "Factor
 // model"): F(wi, wo, lambda) = sum_c exp(min(eta_c, 60)), added to the records' series before
-// the clamp at 0. The angular terms T_cr depend on the directions only and are computed once per
-// query (sbrdf_fact_terms); the spectra are interpolated per wavelength (sbrdf_fact_value).
+// the clamp at 0. Each angular term T_cr (a sum of table lookups, depending on the directions
+// only) is computed once per query and used at once for every wavelength asked.
 
-// The fixed nodes of each feature code, and U at the 1/cos axes' nodes (1/cos of the node,
-// computed in f64 and rounded to f32).
-const SBRDF_FACT_NODES_H = array<f32, 23>(0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0,
-    6.5, 8.0, 10.0, 13.0, 16.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0, 75.0, 90.0);
-const SBRDF_FACT_NODES_POLAR = array<f32, 12>(0.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0,
-    75.0, 80.0, 85.0, 88.0);
-const SBRDF_FACT_U_POLAR = array<f32, 12>(1.0, 1.015426636, 1.064177752, 1.154700518,
-    1.305407286, 1.555723786, 2.0, 2.923804283, 3.863703251, 5.758770466, 11.47371292,
-    28.6537075);
-const SBRDF_FACT_NODES_COARSE = array<f32, 7>(0.0, 20.0, 40.0, 60.0, 70.0, 80.0, 88.0);
-const SBRDF_FACT_U_COARSE = array<f32, 7>(1.0, 1.064177752, 1.305407286, 2.0, 2.923804283,
-    5.758770466, 28.6537075);
+// The theta_h axis's nodes (code 1), 23 of them.
+fn sbrdf_fact_node_h(i: u32) -> f32 {
+    switch (i) {
+        case 0u: { return 0.0; }
+        case 1u: { return 0.25; }
+        case 2u: { return 0.5; }
+        case 3u: { return 0.75; }
+        case 4u: { return 1.0; }
+        case 5u: { return 1.5; }
+        case 6u: { return 2.0; }
+        case 7u: { return 3.0; }
+        case 8u: { return 4.0; }
+        case 9u: { return 5.0; }
+        case 10u: { return 6.5; }
+        case 11u: { return 8.0; }
+        case 12u: { return 10.0; }
+        case 13u: { return 13.0; }
+        case 14u: { return 16.0; }
+        case 15u: { return 20.0; }
+        case 16u: { return 25.0; }
+        case 17u: { return 30.0; }
+        case 18u: { return 40.0; }
+        case 19u: { return 50.0; }
+        case 20u: { return 60.0; }
+        case 21u: { return 75.0; }
+        default: { return 90.0; }
+    }
+}
+
+// U = 1/cos at the polar axis's nodes (codes 3 and 4: 0, 10, ..., 70, 75, 80, 85, 88 degrees),
+// computed in f64 and rounded to f32.
+fn sbrdf_fact_u_polar(i: u32) -> f32 {
+    switch (i) {
+        case 0u: { return 1.0; }
+        case 1u: { return 1.015426636; }
+        case 2u: { return 1.064177752; }
+        case 3u: { return 1.154700518; }
+        case 4u: { return 1.305407286; }
+        case 5u: { return 1.555723786; }
+        case 6u: { return 2.0; }
+        case 7u: { return 2.923804283; }
+        case 8u: { return 3.863703251; }
+        case 9u: { return 5.758770466; }
+        case 10u: { return 11.47371292; }
+        default: { return 28.6537075; }
+    }
+}
+
+// The index on the polar axis of node i of `axis`: 2, theta_i / theta_o, itself; 3, the coarse
+// theta_i axis of code 6 (0, 20, 40, 60, 70, 80, 88 degrees: polar nodes 0, 2, 4, 6, 7, 9, 11).
+fn sbrdf_fact_polar_index(axis: u32, i: u32) -> u32 {
+    if (axis == 3u) {
+        return select(2u * i, 2u * i - 1u, i >= 4u);
+    }
+    return i;
+}
+
+// Node i of `axis` (0 theta_h; 2 and 3 as sbrdf_fact_polar_index), degrees.
+fn sbrdf_fact_node(axis: u32, i: u32) -> f32 {
+    if (axis == 0u) {
+        return sbrdf_fact_node_h(i);
+    }
+    let p = sbrdf_fact_polar_index(axis, i);
+    if (p <= 7u) {
+        return 10.0 * f32(p);
+    }
+    return min(75.0 + 5.0 * f32(p - 8u), 88.0);
+}
 
 // (j, a) of v on an axis ("Tables": the largest j with n_j <= v, at most m - 2; a linear in U,
 // clamped to [0, 1]): axis 0 theta_h, 1 theta_d (every 10 degrees), 2 theta_i / theta_o
@@ -978,33 +1274,34 @@ const SBRDF_FACT_U_COARSE = array<f32, 7>(1.0, 1.064177752, 1.305407286, 2.0, 2.
 fn sbrdf_fact_locate(axis: u32, v: f32, u: f32) -> vec2<f32> {
     var j = 0u;
     var a = 0.0;
-    if (axis == 0u) {
-        for (var i = 1u; i < 22u; i = i + 1u) {
-            if (SBRDF_FACT_NODES_H[i] <= v) {
-                j = i;
-            }
-        }
-        a = (v - SBRDF_FACT_NODES_H[j]) / (SBRDF_FACT_NODES_H[j + 1u] - SBRDF_FACT_NODES_H[j]);
-    } else if (axis == 1u) {
+    if (axis == 1u) {
         j = min(u32(max(floor(v / 10.0), 0.0)), 8u);
         a = (v - 10.0 * f32(j)) / 10.0;
-    } else if (axis == 2u) {
-        for (var i = 1u; i < 11u; i = i + 1u) {
-            if (SBRDF_FACT_NODES_POLAR[i] <= v) {
-                j = i;
-            }
-        }
-        a = (u - SBRDF_FACT_U_POLAR[j]) / (SBRDF_FACT_U_POLAR[j + 1u] - SBRDF_FACT_U_POLAR[j]);
-    } else if (axis == 3u) {
-        for (var i = 1u; i < 6u; i = i + 1u) {
-            if (SBRDF_FACT_NODES_COARSE[i] <= v) {
-                j = i;
-            }
-        }
-        a = (u - SBRDF_FACT_U_COARSE[j]) / (SBRDF_FACT_U_COARSE[j + 1u] - SBRDF_FACT_U_COARSE[j]);
-    } else {
+    } else if (axis == 4u) {
         j = min(u32(max(floor((v + 1.0) * 4.0), 0.0)), 7u);
         a = (v - (-1.0 + 0.25 * f32(j))) * 4.0;
+    } else {
+        // Binary search over the m nodes (23, 12 or 7).
+        let m = select(select(7u, 12u, axis == 2u), 23u, axis == 0u);
+        var hi = m - 1u;
+        for (var it = 0u; it < 8u; it = it + 1u) {
+            if (hi - j <= 1u) {
+                break;
+            }
+            let mid = (j + hi) >> 1u;
+            if (sbrdf_fact_node(axis, mid) <= v) {
+                j = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        if (axis == 0u) {
+            let n0 = sbrdf_fact_node_h(j);
+            a = (v - n0) / (sbrdf_fact_node_h(j + 1u) - n0);
+        } else {
+            let u0 = sbrdf_fact_u_polar(sbrdf_fact_polar_index(axis, j));
+            a = (u - u0) / (sbrdf_fact_u_polar(sbrdf_fact_polar_index(axis, j + 1u)) - u0);
+        }
     }
     return vec2<f32>(bitcast<f32>(j), clamp(a, 0.0, 1.0));
 }
@@ -1019,6 +1316,7 @@ fn sbrdf_fact_secant(v: f32, raw: f32, z: f32) -> f32 {
     }
     return 1.0 / sbrdf_sincos_deg(vc).y;
 }
+
 
 // The value of table `code` (1..6) stored from value index `at` of a component's values.
 // f = (theta_h, theta_d, theta_i, theta_o) clamped, x clamped, s = (U of theta_i, U of theta_o).
@@ -1056,6 +1354,7 @@ fn sbrdf_fact_table(o: u32, enc: u32, at: u32, code: u32, f: vec4<f32>, x: f32,
     return (1.0 - ja.y) * t0 + ja.y * t1;
 }
 
+
 // Node count of a feature code's table.
 fn sbrdf_fact_len(code: u32) -> u32 {
     switch (code) {
@@ -1066,6 +1365,7 @@ fn sbrdf_fact_len(code: u32) -> u32 {
         default: { return 63u; }
     }
 }
+
 
 // n_c, the node count of a component's tables: the sum over its nf packed feature codes.
 fn sbrdf_fact_nodes(codes: u32, nf: u32) -> u32 {
@@ -1078,144 +1378,804 @@ fn sbrdf_fact_nodes(codes: u32, nf: u32) -> u32 {
     return nodes;
 }
 
-// The angular terms T_cr of the model section at absolute word m, at the unit upper-hemisphere
-// vectors ui, uo (any common frame: every feature is invariant under a turn about z), into t in
-// component order, rank-major.
-fn sbrdf_fact_terms(base: u32, m: u32, ui: vec3<f32>, uo: vec3<f32>,
-    t: ptr<function, array<f32, 64>>) {
-    let enc = sbrdf_u(m + 1u);
-    let nc = min(sbrdf_u(m + 2u), 8u);
-    let w = sbrdf_u(base + 7u);
-    // Features ("Factor model", Features), without turning the frame: theta_h from the sum's
-    // horizontal length and height, theta_d as half the angle between wi and wo (the angle
-    // between wi and the half vector), x as wo's component along wi's azimuth.
+
+// (j, a) of a finite wavelength among the layout's W wavelengths ("Factor model", Spectra):
+// linear between wavelengths j and j + 1 at fraction a, held at the ends.
+fn sbrdf_fact_bracket(base: u32, lambda: f32) -> vec2<f32> {
+    let w = sbrdf_u(base + SBRDF_HDR_WAVES);
+    let ow = base + sbrdf_u(base + SBRDF_HDR_OFF_WAVES);
+    if (w > 1u && lambda > sbrdf_f(ow)) {
+        if (lambda >= sbrdf_f(ow + w - 1u)) {
+            return vec2<f32>(bitcast<f32>(w - 1u), 0.0);
+        }
+        return sbrdf_bracket(ow, w, lambda);
+    }
+    return vec2<f32>(0.0, 0.0);
+}
+
+// A spectrum of a component (W values from value `at`) at a wavelength placed by
+// sbrdf_fact_bracket: linear between values j and j + 1 at fraction a.
+fn sbrdf_fact_spectrum(o: u32, enc: u32, at: u32, j: u32, a: f32) -> f32 {
+    var sp = sbrdf_value(o, at + j, enc, 1.0);
+    if (a != 0.0) {
+        sp = sp + a * (sbrdf_value(o, at + j + 1u, enc, 1.0) - sp);
+    }
+    return sp;
+}
+
+// The same at the first nl of four wavelengths (their j in jv, a in av), 0 in the other lanes.
+fn sbrdf_fact_spectra4(o: u32, enc: u32, at: u32, jv: vec4<u32>, av: vec4<f32>, nl: u32) -> vec4<f32> {
+    var v = vec4<f32>(0.0);
+    v.x = sbrdf_fact_spectrum(o, enc, at, jv.x, av.x);
+    if (nl > 1u) {
+        v.y = sbrdf_fact_spectrum(o, enc, at, jv.y, av.y);
+    }
+    if (nl > 2u) {
+        v.z = sbrdf_fact_spectrum(o, enc, at, jv.z, av.z);
+    }
+    if (nl > 3u) {
+        v.w = sbrdf_fact_spectrum(o, enc, at, jv.w, av.w);
+    }
+    return v;
+}
+
+// exp(min(eta, 60)) at the first nl lanes, 0 in the others.
+fn sbrdf_fact_exp4(eta: vec4<f32>, nl: u32) -> vec4<f32> {
+    var v = vec4<f32>(0.0);
+    v.x = exp(min(eta.x, 60.0));
+    if (nl > 1u) {
+        v.y = exp(min(eta.y, 60.0));
+    }
+    if (nl > 2u) {
+        v.z = exp(min(eta.z, 60.0));
+    }
+    if (nl > 3u) {
+        v.w = exp(min(eta.w, 60.0));
+    }
+    return v;
+}
+
+// The factor model's features at a query ("Factor model", Features): f = (theta_h, theta_d,
+// theta_i, theta_o) clamped to the ranges of the model section at absolute word m, x clamped,
+// and s = U (1/cos) of the clamped theta_i and theta_o.
+struct SbrdfFeatures {
+    f: vec4<f32>,
+    s: vec2<f32>,
+    x: f32,
+}
+
+// The features at the unit upper-hemisphere vectors ui, uo, in any common frame (every feature
+// is invariant under a turn about z), without turning the frame: theta_h from the sum's
+// horizontal length and height, theta_d as half the angle between wi and wo (the angle between
+// wi and the half vector), x as wo's component along wi's azimuth.
+fn sbrdf_fact_features(m: u32, ui: vec3<f32>, uo: vec3<f32>) -> SbrdfFeatures {
     let ri = length(ui.xy);
     let ro = length(uo.xy);
     let mv = ui + uo;
     let mh = length(mv.xy);
-    var th = 90.0;
-    var td = 90.0;
-    if (mh > 0.0 || mv.z > 0.0) {
-        th = sbrdf_atan2_deg(mh, mv.z);
-        td = sbrdf_atan2_deg(length(cross(ui, uo)), 1.0 + dot(ui, uo));
-    }
+    let ok = mh > 0.0 || mv.z > 0.0;
+    let th = select(90.0, sbrdf_atan2_deg(mh, mv.z), ok);
+    let td = select(90.0, sbrdf_atan2_deg(length(cross(ui, uo)), 1.0 + dot(ui, uo)), ok);
     let ti = sbrdf_atan2_deg(ri, ui.z);
     let to = sbrdf_atan2_deg(ro, uo.z);
-    var x = uo.x;
-    if (ri > 0.0) {
-        x = (ui.x * uo.x + ui.y * uo.y) / ri;
-    }
-    let raw = vec4<f32>(th, td, ti, to);
-    let lo = vec4<f32>(sbrdf_f(m + 4u), sbrdf_f(m + 6u), sbrdf_f(m + 8u), sbrdf_f(m + 10u));
-    let hi = vec4<f32>(sbrdf_f(m + 5u), sbrdf_f(m + 7u), sbrdf_f(m + 9u), sbrdf_f(m + 11u));
-    let f = clamp(raw, lo, hi);
-    let xc = clamp(x, sbrdf_f(m + 12u), sbrdf_f(m + 13u));
+    let x = select(uo.x, (ui.x * uo.x + ui.y * uo.y) / ri, ri > 0.0);
+    let rg = m + SBRDF_FACT_RANGES; // (min, max) of theta_h, theta_d, theta_i, theta_o, then x
+    let lo = vec4<f32>(sbrdf_f(rg), sbrdf_f(rg + 2u), sbrdf_f(rg + 4u), sbrdf_f(rg + 6u));
+    let hi = vec4<f32>(sbrdf_f(rg + 1u), sbrdf_f(rg + 3u), sbrdf_f(rg + 5u), sbrdf_f(rg + 7u));
+    let f = clamp(vec4<f32>(th, td, ti, to), lo, hi);
     let s = vec2<f32>(sbrdf_fact_secant(f.z, ti, ui.z), sbrdf_fact_secant(f.w, to, uo.z));
-    var n = 0u;
+    return SbrdfFeatures(f, s, clamp(x, sbrdf_f(rg + 8u), sbrdf_f(rg + 9u)));
+}
+
+// Where each of the first nl of four wavelengths falls among the layout's: column 0 j (as
+// bits), column 1 a (sbrdf_fact_bracket); 0 in the other lanes.
+fn sbrdf_fact_places(base: u32, lambda: vec4<f32>, nl: u32) -> mat2x4<f32> {
+    var p = mat2x4<f32>();
+    let p0 = sbrdf_fact_bracket(base, lambda.x);
+    p[0].x = p0.x;
+    p[1].x = p0.y;
+    if (nl > 1u) {
+        let p1 = sbrdf_fact_bracket(base, lambda.y);
+        p[0].y = p1.x;
+        p[1].y = p1.y;
+    }
+    if (nl > 2u) {
+        let p2 = sbrdf_fact_bracket(base, lambda.z);
+        p[0].z = p2.x;
+        p[1].z = p2.y;
+    }
+    if (nl > 3u) {
+        let p3 = sbrdf_fact_bracket(base, lambda.w);
+        p[0].w = p3.x;
+        p[1].w = p3.y;
+    }
+    return p;
+}
+
+// F at the first nl of the four (finite) wavelengths of the model section of kind 1 at absolute
+// word m, at the unit upper-hemisphere vectors ui, uo; 0 in the other lanes.
+fn sbrdf_fact4(base: u32, m: u32, ui: vec3<f32>, uo: vec3<f32>, lambda: vec4<f32>, nl: u32) -> vec4<f32> {
+    let enc = sbrdf_u(m + SBRDF_FACT_ENCODING);
+    let nc = min(sbrdf_u(m + SBRDF_FACT_COMPONENTS), 8u);
+    let w = sbrdf_u(base + SBRDF_HDR_WAVES);
+    let ft = sbrdf_fact_features(m, ui, uo);
+    let places = sbrdf_fact_places(base, lambda, nl);
+    let jv = bitcast<vec4<u32>>(places[0]);
+    var total = vec4<f32>(0.0);
     for (var c = 0u; c < 8u; c = c + 1u) {
         if (c >= nc) {
             break;
         }
-        let e = m + 14u + 4u * c;
-        let rank = min(sbrdf_u(e), 8u);
-        let nf = min(sbrdf_u(e + 1u), 6u);
-        let codes = sbrdf_u(e + 2u);
-        let o = base + sbrdf_u(e + 3u);
+        let e = m + SBRDF_FACT_WORDS + SBRDF_FACT_C_WORDS * c;
+        let rank = min(sbrdf_u(e + SBRDF_FACT_C_RANK), 8u);
+        let nf = min(sbrdf_u(e + SBRDF_FACT_C_FEATURES), 6u);
+        let codes = sbrdf_u(e + SBRDF_FACT_C_CODES);
+        let o = base + sbrdf_u(e + SBRDF_FACT_C_OFF_VALUES);
         let nodes = sbrdf_fact_nodes(codes, nf);
+        // eta_c = T_c0 + s_c(lambda) + sum_r>=1 w_cr(lambda) T_cr: rank r's spectrum (s_c or
+        // w_cr) at value r (W + nodes), its tables from value r (W + nodes) + W.
+        var eta = vec4<f32>(0.0);
         for (var r = 0u; r < 8u; r = r + 1u) {
             if (r >= rank) {
                 break;
             }
-            // Rank r's tables start at value r (W + nodes) + W (GPU_LAYOUT.md, "Model section").
-            var at = r * (w + nodes) + w;
-            var acc = 0.0;
+            let at = r * (w + nodes);
+            var t = 0.0;
+            var tab = at + w;
             for (var k = 0u; k < 6u; k = k + 1u) {
                 if (k >= nf) {
                     break;
                 }
                 let code = (codes >> (4u * k)) & 15u;
-                acc = acc + sbrdf_fact_table(o, enc, at, code, f, xc, s);
-                at = at + sbrdf_fact_len(code);
+                t = t + sbrdf_fact_table(o, enc, tab, code, ft.f, ft.x, ft.s);
+                tab = tab + sbrdf_fact_len(code);
             }
-            (*t)[n] = acc;
-            n = n + 1u;
-        }
-    }
-}
-
-// F at wavelength lambda (finite) from the terms of sbrdf_fact_terms ("Factor model", Spectra).
-fn sbrdf_fact_value(base: u32, m: u32, t: ptr<function, array<f32, 64>>, lambda: f32) -> f32 {
-    let enc = sbrdf_u(m + 1u);
-    let nc = min(sbrdf_u(m + 2u), 8u);
-    let w = sbrdf_u(base + 7u);
-    let ow = base + sbrdf_u(base + 13u);
-    var j = 0u;
-    var a = 0.0;
-    if (w > 1u && lambda > sbrdf_f(ow)) {
-        if (lambda >= sbrdf_f(ow + w - 1u)) {
-            j = w - 1u;
-        } else {
-            let bw = sbrdf_bracket(ow, w, lambda);
-            j = bitcast<u32>(bw.x);
-            a = bw.y;
-        }
-    }
-    var total = 0.0;
-    var n = 0u;
-    for (var c = 0u; c < 8u; c = c + 1u) {
-        if (c >= nc) {
-            break;
-        }
-        let e = m + 14u + 4u * c;
-        let rank = min(sbrdf_u(e), 8u);
-        let nf = min(sbrdf_u(e + 1u), 6u);
-        let codes = sbrdf_u(e + 2u);
-        let o = base + sbrdf_u(e + 3u);
-        let nodes = sbrdf_fact_nodes(codes, nf);
-        var eta = (*t)[n];
-        for (var r = 0u; r < 8u; r = r + 1u) {
-            if (r >= rank) {
-                break;
-            }
-            // s_c at value 0, w_cr (r >= 1) at value r (W + nodes).
-            let at = r * (w + nodes);
-            var sp = sbrdf_value(o, at + j, enc, 1.0);
-            if (a != 0.0) {
-                sp = sp + a * (sbrdf_value(o, at + j + 1u, enc, 1.0) - sp);
-            }
+            let sp = sbrdf_fact_spectra4(o, enc, at, jv, places[1], nl);
             if (r == 0u) {
-                eta = eta + sp;
+                eta = vec4<f32>(t) + sp;
             } else {
-                eta = eta + sp * (*t)[n + r];
+                eta = eta + sp * t;
             }
         }
-        n = n + rank;
-        total = total + exp(min(eta, 60.0));
+        total = total + sbrdf_fact_exp4(eta, nl);
     }
     return total;
 }
 
-// The model section's angular terms for the query, when the layout has one (header word 19;
-// returns its absolute word, 0 when none). The directions are those sbrdf_coefficients accepted.
-fn sbrdf_model_terms(base: u32, wi: vec3<f32>, wo: vec3<f32>,
-    t: ptr<function, array<f32, 64>>) -> u32 {
-    let m = sbrdf_u(base + 19u);
-    if (m == 0u) {
+// ------------------------------------------------------------------ warped tables
+
+// The model section of kind 2 (spec/GPU_LAYOUT.md, "Warped tables section"; spec/EVALUATION.md,
+// "Warped tables"): a material measured on the RGL database's warped grids, which answers every
+// query itself (its records are empty) and samples itself (its layout has no sampling section).
+// Offsets inside the section are relative to its first word w. The arithmetic follows
+// `src/decode/warped/query.rs`, in f32: the half vector's inverse VNDF warp blended between the
+// two stored viewing directions around the query's, the packed tables bilinear at the warped
+// point, times D/(4 sigma)/cos theta_i; sampling draws a warped point from the tables'
+// spectrum-averaged values, then the VNDF warp forward. The four VNDF rows a cell reads (two
+// rows of two stored incidences) are the lanes of vec4s, so that each row formula is written,
+// and inlined, once.
+
+const SBRDF_WARP_MARG_UNIT: f32 = 1.1920928955078125e-07; // 2^-(32 - SBRDF_WARP_POSITIVE_BITS)
+
+// The absolute word of the layout's warped-tables section, 0 when it has none.
+fn sbrdf_warp_section(base: u32) -> u32 {
+    let m = sbrdf_u(base + SBRDF_HDR_OFF_MODEL);
+    if (m == 0u || sbrdf_u(base + m + SBRDF_MODEL_KIND) != SBRDF_MODEL_WARPED) {
         return 0u;
     }
-    sbrdf_fact_terms(base, base + m, sbrdf_upper(wi).xyz, sbrdf_upper(wo).xyz, t);
     return base + m;
 }
 
-// rho at one finite wavelength from the blended coefficients and the model's terms (m = 0:
-// none): the series plus F, clamped at 0 ("Reconstruction", step 5).
-fn sbrdf_rho(base: u32, coef: ptr<function, array<f32, 256>>, tmax: u32, m: u32,
-    t: ptr<function, array<f32, 64>>, lambda: f32) -> f32 {
-    var v = sbrdf_series(base, coef, tmax, lambda);
-    if (m != 0u) {
-        v = v + sbrdf_fact_value(base, m, t, lambda);
+// The absolute word of an entry of one of the section's arrays (header word `off`).
+fn sbrdf_warp_at(w: u32, off: u32, entry: u32) -> u32 {
+    return w + sbrdf_u(w + off) + entry;
+}
+
+// The two stored incidences around theta (radians) and the upper one's weight t; a layout of
+// one stored incidence has a = b = 0.
+struct SbrdfWarpSlices {
+    a: u32,
+    b: u32,
+    t: f32,
+}
+
+fn sbrdf_warp_theta(w: u32, i: u32) -> f32 {
+    return sbrdf_f(sbrdf_warp_at(w, SBRDF_WARP_OFF_INCIDENCES,
+        SBRDF_WARP_INC_WORDS * i + SBRDF_WARP_INC_THETA));
+}
+
+fn sbrdf_warp_slices(w: u32, theta: f32) -> SbrdfWarpSlices {
+    let n = sbrdf_u(w + SBRDF_WARP_N);
+    if (n < 2u) {
+        return SbrdfWarpSlices(0u, 0u, 0.0);
     }
-    return max(0.0, v);
+    let th = clamp(theta, sbrdf_warp_theta(w, 0u), sbrdf_warp_theta(w, n - 1u));
+    var i = 0u;
+    for (; i + 2u < n; i = i + 1u) {
+        if (sbrdf_warp_theta(w, i + 1u) > th) {
+            break;
+        }
+    }
+    let lo = sbrdf_warp_theta(w, i);
+    let hi = sbrdf_warp_theta(w, i + 1u);
+    return SbrdfWarpSlices(i, i + 1u, clamp((th - lo) / (hi - lo), 0.0, 1.0));
+}
+
+// a + (b - a) t, the CPU's `lerp` (WGSL's mix rounds differently).
+fn sbrdf_warp_lerp(a: f32, b: f32, t: f32) -> f32 {
+    return a + (b - a) * t;
+}
+
+// The cell of x in [0, 1] on n nodes: (index as bits, position within it).
+fn sbrdf_warp_cell(x: f32, n: u32) -> vec2<f32> {
+    let f = clamp(x, 0.0, 1.0) * f32(n - 1u);
+    let i = min(u32(f), n - 2u);
+    return vec2<f32>(bitcast<f32>(i), f - f32(i));
+}
+
+// Lanes (row b of slice a, row b of slice b, row b + 1 of slice a, row b + 1 of slice b)
+// blended between the slices: (row b, row b + 1).
+fn sbrdf_warp_blend(sl: SbrdfWarpSlices, v: vec4<f32>) -> vec2<f32> {
+    return vec2<f32>(v.x + (v.y - v.x) * sl.t, v.z + (v.w - v.z) * sl.t);
+}
+
+// A VNDF column (f, sin theta_m, cos theta_m, U, V).
+struct SbrdfWarpCol {
+    f: f32,
+    s: f32,
+    c: f32,
+    u: f32,
+    v: f32,
+}
+
+fn sbrdf_warp_col(w: u32, a: u32) -> SbrdfWarpCol {
+    let o = sbrdf_warp_at(w, SBRDF_WARP_OFF_COLUMNS, SBRDF_WARP_COL_WORDS * a);
+    return SbrdfWarpCol(sbrdf_f(o + SBRDF_WARP_COL_F), sbrdf_f(o + SBRDF_WARP_COL_SIN),
+        sbrdf_f(o + SBRDF_WARP_COL_COS), sbrdf_f(o + SBRDF_WARP_COL_U),
+        sbrdf_f(o + SBRDF_WARP_COL_V));
+}
+
+// The four VNDF rows of a cell (`vndf::Row`), lane-wise as sbrdf_warp_blend orders them:
+// alpha = sin theta cos phi_row and cos theta, both times the incidence's 1/I (so that the
+// densities and conditional integrals below come normalised), the run of positive columns,
+// and the row's normalised total. (Four vec4s: what a GPU keeps in registers.)
+struct SbrdfWarpRows {
+    alpha: vec4<f32>,
+    ct: vec4<f32>,
+    positive: vec4<u32>,
+    total: vec4<f32>,
+}
+
+fn sbrdf_warp_rows(w: u32, sl: SbrdfWarpSlices, b: u32) -> SbrdfWarpRows {
+    let g = sbrdf_u(w + SBRDF_WARP_G);
+    var r: SbrdfWarpRows;
+    for (var j = 0u; j < 4u; j = j + 1u) {
+        let i = select(sl.a, sl.b, (j & 1u) == 1u);
+        let row = b + (j >> 1u);
+        let inc = sbrdf_warp_at(w, SBRDF_WARP_OFF_INCIDENCES, SBRDF_WARP_INC_WORDS * i);
+        let scale = sbrdf_f(inc + SBRDF_WARP_INC_VNDF_SCALE);
+        let alpha = sbrdf_f(inc + SBRDF_WARP_INC_SIN)
+            * sbrdf_f(sbrdf_warp_at(w, SBRDF_WARP_OFF_ROW_COSINES, row));
+        let ct = sbrdf_f(inc + SBRDF_WARP_INC_COS);
+        let positive = sbrdf_u(sbrdf_warp_at(w, SBRDF_WARP_OFF_VNDF_ROWS, i * g + row))
+            & ((1u << SBRDF_WARP_POSITIVE_BITS) - 1u);
+        // The total from the run's last column (`vndf::row_total`).
+        var total = 0.0;
+        if (positive > 0u) {
+            let c = sbrdf_warp_col(w, positive - 1u);
+            total = alpha * c.u + ct * c.v;
+            if (positive < g) {
+                total = total + 0.5 / f32(g - 1u) * (c.f * max(0.0, alpha * c.s + ct * c.c));
+            }
+        }
+        r.alpha[j] = scale * alpha;
+        r.ct[j] = scale * ct;
+        r.positive[j] = positive;
+        r.total[j] = scale * total;
+    }
+    return r;
+}
+
+// The four rows' densities at column a.
+fn sbrdf_warp_density4(r: SbrdfWarpRows, a: u32, c: SbrdfWarpCol) -> vec4<f32> {
+    let p = c.f * max(vec4<f32>(0.0), r.alpha * c.s + r.ct * c.c);
+    return select(vec4<f32>(0.0), p, vec4<u32>(a) < r.positive);
+}
+
+// The four rows' conditional integrals at column a.
+fn sbrdf_warp_cond4(r: SbrdfWarpRows, a: u32, c: SbrdfWarpCol) -> vec4<f32> {
+    return select(r.total, r.alpha * c.u + r.ct * c.v, vec4<u32>(a) < r.positive);
+}
+
+// A VNDF row's marginal blended between the slices (the rows' bisection reads one row).
+fn sbrdf_warp_vndf_marg(w: u32, sl: SbrdfWarpSlices, b: u32) -> f32 {
+    let g = sbrdf_u(w + SBRDF_WARP_G);
+    let ma = f32(sbrdf_u(sbrdf_warp_at(w, SBRDF_WARP_OFF_VNDF_ROWS, sl.a * g + b))
+        >> SBRDF_WARP_POSITIVE_BITS) * SBRDF_WARP_MARG_UNIT;
+    let mb = f32(sbrdf_u(sbrdf_warp_at(w, SBRDF_WARP_OFF_VNDF_ROWS, sl.b * g + b))
+        >> SBRDF_WARP_POSITIVE_BITS) * SBRDF_WARP_MARG_UNIT;
+    return ma + (mb - ma) * sl.t;
+}
+
+// The inverse VNDF warp of u (the half vector's parameter) and the blended VNDF density there:
+// (sx, sy, density).
+fn sbrdf_warp_invert(w: u32, sl: SbrdfWarpSlices, ux: f32, uy: f32) -> vec3<f32> {
+    let g = sbrdf_u(w + SBRDF_WARP_G);
+    let n1 = f32(g - 1u);
+    let ca = sbrdf_warp_cell(ux, g);
+    let cb = sbrdf_warp_cell(uy, g);
+    let a = bitcast<u32>(ca.x);
+    let tx = ca.y;
+    let ty = cb.y;
+    let b = bitcast<u32>(cb.x);
+    let rows = sbrdf_warp_rows(w, sl, b);
+    let col0 = sbrdf_warp_col(w, a);
+    let d0 = sbrdf_warp_blend(sl, sbrdf_warp_density4(rows, a, col0));
+    let d1 = sbrdf_warp_blend(sl, sbrdf_warp_density4(rows, a + 1u, sbrdf_warp_col(w, a + 1u)));
+    let c0 = sbrdf_warp_lerp(d0.x, d0.y, ty);
+    let c1 = sbrdf_warp_lerp(d1.x, d1.y, ty);
+    let bc = sbrdf_warp_blend(sl, sbrdf_warp_cond4(rows, a, col0));
+    let before = sbrdf_warp_lerp(bc.x, bc.y, ty);
+    let within = tx * (c0 + 0.5 * (c1 - c0) * tx) / n1;
+    let r = sbrdf_warp_blend(sl, rows.total);
+    let total = sbrdf_warp_lerp(r.x, r.y, ty);
+    var sx = 0.0;
+    if (total > 0.0) {
+        sx = (before + within) / total;
+    }
+    let sy = sbrdf_warp_vndf_marg(w, sl, b) + ty * (r.x + 0.5 * (r.y - r.x) * ty) / n1;
+    return vec3<f32>(clamp(sx, 0.0, 1.0), clamp(sy, 0.0, 1.0), sbrdf_warp_lerp(c0, c1, tx));
+}
+
+// tau in [0, 1] with the integral over [0, tau] of sbrdf_warp_lerp(v0, v1, t) dt = a.
+fn sbrdf_warp_segment(a_in: f32, v0: f32, v1: f32) -> f32 {
+    let a = max(a_in, 0.0);
+    let disc = max(v0 * v0 + 2.0 * a * (v1 - v0), 0.0);
+    let den = v0 + sqrt(disc);
+    if (den > 0.0) {
+        return clamp(2.0 * a / den, 0.0, 1.0);
+    }
+    return 0.0;
+}
+
+// The forward VNDF warp: a uniform point (sx, sy) -> u. The row by bisection on the blended
+// marginal, the column by bisection on the blended conditional integral.
+fn sbrdf_warp_vndf_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32) -> vec2<f32> {
+    let g = sbrdf_u(w + SBRDF_WARP_G);
+    let n1 = f32(g - 1u);
+    let sx = clamp(sx_in, 0.0, 1.0);
+    let sy = clamp(sy_in, 0.0, 1.0);
+    var lo = 0u;
+    var hi = g - 1u;
+    for (var it = 0u; it < 32u && lo + 1u < hi; it = it + 1u) {
+        let mid = (lo + hi) >> 1u;
+        if (sbrdf_warp_vndf_marg(w, sl, mid) < sy) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let b = min(hi - 1u, g - 2u);
+    let rows = sbrdf_warp_rows(w, sl, b);
+    let r = sbrdf_warp_blend(sl, rows.total);
+    let ty = sbrdf_warp_segment((sy - sbrdf_warp_vndf_marg(w, sl, b)) * n1, r.x, r.y);
+    let goal = sx * sbrdf_warp_lerp(r.x, r.y, ty);
+    lo = 0u;
+    hi = g - 1u;
+    for (var it = 0u; it < 32u && lo + 1u < hi; it = it + 1u) {
+        let mid = (lo + hi) >> 1u;
+        let cm = sbrdf_warp_blend(sl, sbrdf_warp_cond4(rows, mid, sbrdf_warp_col(w, mid)));
+        if (sbrdf_warp_lerp(cm.x, cm.y, ty) < goal) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let a = min(hi - 1u, g - 2u);
+    let col0 = sbrdf_warp_col(w, a);
+    let d0 = sbrdf_warp_blend(sl, sbrdf_warp_density4(rows, a, col0));
+    let d1 = sbrdf_warp_blend(sl, sbrdf_warp_density4(rows, a + 1u, sbrdf_warp_col(w, a + 1u)));
+    let ca = sbrdf_warp_blend(sl, sbrdf_warp_cond4(rows, a, col0));
+    let tx = sbrdf_warp_segment((goal - sbrdf_warp_lerp(ca.x, ca.y, ty)) * n1, sbrdf_warp_lerp(d0.x, d0.y, ty),
+        sbrdf_warp_lerp(d1.x, d1.y, ty));
+    return vec2<f32>((f32(a) + tx) / n1, (f32(b) + ty) / n1);
+}
+
+// Code j of a packed table (bits per code, codes from absolute word o, least bit first).
+fn sbrdf_warp_code(o: u32, bits: u32, j: u32) -> u32 {
+    if (bits == 0u) {
+        return 0u;
+    }
+    let bit = j * bits;
+    let wd = o + (bit >> 5u);
+    let sh = bit & 31u;
+    var v = sbrdf_u(wd) >> sh;
+    if (sh + bits > 32u) {
+        v = v | (sbrdf_u(wd + 1u) << (32u - sh));
+    }
+    return v & ((1u << bits) - 1u);
+}
+
+// Table t = i K + k at nodes (n0, n0 + 1, n1, n1 + 1): lo + code step each.
+fn sbrdf_warp_table4(w: u32, t: u32, n0: u32, n1: u32) -> vec4<f32> {
+    let e = sbrdf_warp_at(w, SBRDF_WARP_OFF_TABLES, SBRDF_WARP_TAB_WORDS * t);
+    let o = w + sbrdf_u(e + SBRDF_WARP_TAB_OFF_CODES);
+    let bits = sbrdf_u(e + SBRDF_WARP_TAB_BITS);
+    let codes = vec4<u32>(sbrdf_warp_code(o, bits, n0), sbrdf_warp_code(o, bits, n0 + 1u),
+        sbrdf_warp_code(o, bits, n1), sbrdf_warp_code(o, bits, n1 + 1u));
+    return vec4<f32>(sbrdf_f(e + SBRDF_WARP_TAB_LO)) + vec4<f32>(codes)
+        * sbrdf_f(e + SBRDF_WARP_TAB_STEP);
+}
+
+// Bilinear in a cell from its corners (lower row's two, upper row's two), as the CPU's
+// lerp(lerp(v00, v01, tx), lerp(v10, v11, tx), ty).
+fn sbrdf_warp_bilerp(v: vec4<f32>, tx: f32, ty: f32) -> f32 {
+    let lo = v.x + (v.y - v.x) * tx;
+    let hi = v.z + (v.w - v.z) * tx;
+    return lo + (hi - lo) * ty;
+}
+
+// The tables' frame for a direction d (the viewer's for evaluation, the given one for
+// sampling): the turn about z that gives d azimuth 0, (cos, sin) in .xy, d's theta (radians)
+// in .z.
+fn sbrdf_warp_frame(d: vec3<f32>) -> vec3<f32> {
+    let r = sqrt(d.x * d.x + d.y * d.y);
+    var cs = vec2<f32>(1.0, 0.0);
+    if (r > 0.0) {
+        cs = vec2<f32>(d.x / r, d.y / r);
+    }
+    return vec3<f32>(cs, sbrdf_atan2_deg(r, d.z) * SBRDF_DEG);
+}
+
+fn sbrdf_warp_in(f: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(f.x * v.x + f.y * v.y, -f.y * v.x + f.x * v.y, v.z);
+}
+
+// The half-vector parameter u of unit m, and sin theta_m: (ux, uy, sin theta_m).
+fn sbrdf_warp_half(m: vec3<f32>) -> vec3<f32> {
+    let sin_m = sqrt(m.x * m.x + m.y * m.y);
+    let ux = sqrt(sbrdf_atan2_deg(sin_m, m.z) / 90.0);
+    var uy = (sbrdf_atan2_deg(m.y, m.x) + 180.0) / 360.0;
+    if (uy >= 1.0) {
+        uy = uy - 1.0;
+    }
+    return vec3<f32>(ux, uy, sin_m);
+}
+
+// Linear between M nodes at j/(M-1) (x clamped to [0, 1]), from absolute word o.
+fn sbrdf_warp_nodes(o: u32, m: u32, x: f32) -> f32 {
+    let c = sbrdf_warp_cell(x, m);
+    let i = bitcast<u32>(c.x);
+    let a = sbrdf_f(o + i);
+    return a + (sbrdf_f(o + i + 1u) - a) * c.y;
+}
+
+// What an evaluation at unit ui, uo (above the horizon) reads of the tables, into the query's
+// record fields (a warped query blends no records): rec[0], rec[1] the slices, w[0] the upper
+// one's weight; rec[2] the first node of the tables' cell (the upper row's is rec[2] + R), w[1],
+// w[2] the position in the cell; w[3] = D(u_x) / (4 sigma) / cos theta_i (0: rho is 0 there).
+// The tables follow the viewer's direction uo: in the tables' frame the roles of the two
+// directions are exchanged.
+fn sbrdf_warp_query(w: u32, ui: vec3<f32>, uo: vec3<f32>, q: ptr<function, SbrdfQuery>) {
+    (*q).w[3] = 0.0;
+    let fr = sbrdf_warp_frame(uo);
+    let a = vec3<f32>(sqrt(uo.x * uo.x + uo.y * uo.y), 0.0, uo.z);
+    let b = sbrdf_warp_in(fr, ui);
+    let h = a + b;
+    let len = length(h);
+    if (b.z <= 0.0 || !(len > 0.0)) {
+        return;
+    }
+    let u = sbrdf_warp_half(h / len);
+    let sl = sbrdf_warp_slices(w, fr.z);
+    let s = sbrdf_warp_invert(w, sl, u.x, u.y);
+    let m = sbrdf_u(w + SBRDF_WARP_M);
+    let sigma = sbrdf_warp_nodes(sbrdf_warp_at(w, SBRDF_WARP_OFF_SIGMA, 0u), m,
+        sqrt(max(fr.z, 0.0) / (0.5 * SBRDF_PI)));
+    let d = sbrdf_warp_nodes(sbrdf_warp_at(w, SBRDF_WARP_OFF_NDF, 0u), m, u.x);
+    let r = sbrdf_u(w + SBRDF_WARP_R);
+    let cx = sbrdf_warp_cell(s.x, r);
+    let cy = sbrdf_warp_cell(s.y, r);
+    (*q).rec[0] = sl.a;
+    (*q).rec[1] = sl.b;
+    (*q).rec[2] = bitcast<u32>(cy.x) * r + bitcast<u32>(cx.x);
+    (*q).w[0] = sl.t;
+    (*q).w[1] = cx.y;
+    (*q).w[2] = cy.y;
+    (*q).w[3] = d / (4.0 * sigma) / b.z;
+}
+
+// Terms k0 .. k0 + 3 of the tables' spectral coefficients at the query (blended between the
+// slices, bilinear in the cell, times f), 0 past K: the warped counterpart of sbrdf_coef4.
+fn sbrdf_warp_coef4(w: u32, q: ptr<function, SbrdfQuery>, k0: u32) -> vec4<f32> {
+    var c = vec4<f32>(0.0);
+    let f = (*q).w[3];
+    if (f == 0.0) {
+        return c;
+    }
+    let nk = sbrdf_u(w + SBRDF_WARP_K);
+    let n0 = (*q).rec[2];
+    let n1 = n0 + sbrdf_u(w + SBRDF_WARP_R);
+    for (var j = 0u; j < sbrdf_chunk(k0, nk); j = j + 1u) {
+        // Slice a's and slice b's table of term k0 + j (one call site: 2 n calls).
+        var v = vec2<f32>(0.0);
+        for (var s = 0u; s < 2u; s = s + 1u) {
+            let t = sbrdf_warp_table4(w, (*q).rec[s] * nk + k0 + j, n0, n1);
+            v[s] = sbrdf_warp_bilerp(t, (*q).w[1], (*q).w[2]);
+        }
+        c[j] = (v.x + (v.y - v.x) * (*q).w[0]) * f;
+    }
+    return c;
+}
+
+// Importance sampling of warped tables ("Warped tables", Importance sampling): a share
+// SBRDF_MIN_COSINE_WEIGHT of the cosine, the rest from each stored incidence's values' density
+// (the spectrum-averaged packed values clamped at 0, plus the incidence's floor, over its total)
+// through the VNDF warp.
+
+// The values' density of stored incidence i at node j.
+fn sbrdf_warp_values_at(w: u32, i: u32, j: u32) -> f32 {
+    let nk = sbrdf_u(w + SBRDF_WARP_K);
+    let means = sbrdf_warp_at(w, SBRDF_WARP_OFF_BASIS_MEANS, 0u);
+    var v = 0.0;
+    for (var k = 0u; k < nk; k = k + 1u) {
+        let e = sbrdf_warp_at(w, SBRDF_WARP_OFF_TABLES, SBRDF_WARP_TAB_WORDS * (i * nk + k));
+        let code = sbrdf_warp_code(w + sbrdf_u(e + SBRDF_WARP_TAB_OFF_CODES),
+            sbrdf_u(e + SBRDF_WARP_TAB_BITS), j);
+        let t = sbrdf_f(e + SBRDF_WARP_TAB_LO) + f32(code) * sbrdf_f(e + SBRDF_WARP_TAB_STEP);
+        v = v + t * sbrdf_f(means + k);
+    }
+    let inc = sbrdf_warp_at(w, SBRDF_WARP_OFF_INCIDENCES, SBRDF_WARP_INC_WORDS * i);
+    return sbrdf_f(inc + SBRDF_WARP_INC_VALUES_SCALE)
+        * (max(v, 0.0) + sbrdf_f(inc + SBRDF_WARP_INC_VALUES_FLOOR));
+}
+
+// The values' density at nodes (n0, n0 + 1, n1, n1 + 1), blended between the slices.
+fn sbrdf_warp_values4(w: u32, sl: SbrdfWarpSlices, n0: u32, n1: u32) -> vec4<f32> {
+    var va = vec4<f32>(0.0);
+    var vb = vec4<f32>(0.0);
+    for (var j = 0u; j < 8u; j = j + 1u) {
+        let corner = j >> 1u;
+        let node = select(n0, n1, corner >= 2u) + (corner & 1u);
+        let x = sbrdf_warp_values_at(w, select(sl.a, sl.b, (j & 1u) == 1u), node);
+        if ((j & 1u) == 1u) {
+            vb[corner] = x;
+        } else {
+            va[corner] = x;
+        }
+    }
+    return va + (vb - va) * sl.t;
+}
+
+// Word `field` of values row (i, b).
+fn sbrdf_warp_values_row(w: u32, i: u32, b: u32, field: u32) -> f32 {
+    let r = sbrdf_u(w + SBRDF_WARP_R);
+    return sbrdf_f(sbrdf_warp_at(w, SBRDF_WARP_OFF_VALUES_ROWS,
+        SBRDF_WARP_VAL_WORDS * (i * r + b) + field));
+}
+
+// Word `field` of values rows b and b + 1, blended between the slices.
+fn sbrdf_warp_values_rows(w: u32, sl: SbrdfWarpSlices, b: u32, field: u32) -> vec2<f32> {
+    var v = vec4<f32>(0.0);
+    for (var j = 0u; j < 4u; j = j + 1u) {
+        v[j] = sbrdf_warp_values_row(w, select(sl.a, sl.b, (j & 1u) == 1u), b + (j >> 1u), field);
+    }
+    return sbrdf_warp_blend(sl, v);
+}
+
+// The forward warp of the values' density: a uniform point -> a warped point. The row by
+// bisection on its stored marginal, the column from the last kept mark below the target,
+// walking the row from there.
+fn sbrdf_warp_values_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32) -> vec2<f32> {
+    let r = sbrdf_u(w + SBRDF_WARP_R);
+    let n1 = f32(r - 1u);
+    let sx = clamp(sx_in, 0.0, 1.0);
+    let sy = clamp(sy_in, 0.0, 1.0);
+    var lo = 0u;
+    var hi = r - 1u;
+    for (var it = 0u; it < 32u && lo + 1u < hi; it = it + 1u) {
+        let mid = (lo + hi) >> 1u;
+        if (sbrdf_warp_values_rows(w, sl, mid, SBRDF_WARP_VAL_MARG).x < sy) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let b = min(hi - 1u, r - 2u);
+    let tot = sbrdf_warp_values_rows(w, sl, b, SBRDF_WARP_VAL_TOTAL);
+    let mb = sbrdf_warp_values_rows(w, sl, b, SBRDF_WARP_VAL_MARG).x;
+    let ty = sbrdf_warp_segment((sy - mb) * n1, tot.x, tot.y);
+    let goal = sx * sbrdf_warp_lerp(tot.x, tot.y, ty);
+    var a = 0u;
+    var before = 0.0;
+    for (var j = 0u; j < SBRDF_WARP_MARKS; j = j + 1u) {
+        let mk = sbrdf_warp_values_rows(w, sl, b, SBRDF_WARP_VAL_MARKS + j);
+        let m = sbrdf_warp_lerp(mk.x, mk.y, ty);
+        if (m >= goal) {
+            break;
+        }
+        a = (j + 1u) * (r - 1u) / (SBRDF_WARP_MARKS + 1u);
+        before = m;
+    }
+    // Walk the row: the density at columns a and a + 1 (rows b and b + 1 blended by ty).
+    let half = 0.5 / n1;
+    var c = vec2<f32>(0.0);
+    for (var it = 0u; it < r; it = it + 1u) {
+        let v = sbrdf_warp_values4(w, sl, b * r + a, b * r + r + a);
+        c = vec2<f32>(sbrdf_warp_lerp(v.x, v.z, ty), sbrdf_warp_lerp(v.y, v.w, ty));
+        if (a + 2u >= r) {
+            break;
+        }
+        let next = before + half * (c.x + c.y);
+        if (next >= goal) {
+            break;
+        }
+        a = a + 1u;
+        before = next;
+    }
+    let tx = sbrdf_warp_segment((goal - before) * n1, c.x, c.y);
+    return vec2<f32>((f32(a) + tx) / n1, (f32(b) + ty) / n1);
+}
+
+// sbrdf_pdf for warped tables at section w (unit ui, uo above the horizon): the cosine's share
+// plus the tables' share through the half vector of ui and uo and of ui and uo's mirror image
+// below the surface (the draw reflects ui about the drawn half vector and takes |z|).
+// The mirror image of the exact mirror direction is -ui, where that term's density grows as 1/|h|
+// and f32 loses it unless h is formed where it is exact and wo.m comes from |h| (issue 38):
+// h = ui + uo' in the surface's frame (nearly opposite f32 components subtract exactly), then
+// turned into the tables' frame (an error relative to |h|, not to 1); and wo.m = |h|/2 for unit
+// vectors, where an explicit dot with m nearly perpendicular to wo loses every digit.
+fn sbrdf_warp_pdf(w: u32, ui: vec3<f32>, uo: vec3<f32>) -> f32 {
+    if (uo.z <= 0.0) {
+        return 0.0;
+    }
+    let fr = sbrdf_warp_frame(ui);
+    let sl = sbrdf_warp_slices(w, fr.z);
+    let r = sbrdf_u(w + SBRDF_WARP_R);
+    var tables = 0.0;
+    for (var j = 0u; j < 2u; j = j + 1u) {
+        let h = sbrdf_warp_in(fr, ui + vec3<f32>(uo.x, uo.y, select(uo.z, -uo.z, j == 1u)));
+        let len = length(h);
+        if (!(len > 0.0) || h.z < 0.0) {
+            continue;
+        }
+        let m = h / len;
+        let u = sbrdf_warp_half(m);
+        let jac = u.z * SBRDF_PI * u.x * 2.0 * SBRDF_PI;
+        let d = 0.5 * len;
+        if (!(jac > 0.0)) {
+            continue;
+        }
+        let s = sbrdf_warp_invert(w, sl, u.x, u.y);
+        let cx = sbrdf_warp_cell(s.x, r);
+        let cy = sbrdf_warp_cell(s.y, r);
+        let n0 = bitcast<u32>(cy.x) * r + bitcast<u32>(cx.x);
+        let v = sbrdf_warp_values4(w, sl, n0, n0 + r);
+        let density = sbrdf_warp_bilerp(v, cx.y, cy.y);
+        tables = tables + density * s.z / jac / (4.0 * d);
+    }
+    return SBRDF_MIN_COSINE_WEIGHT * uo.z / SBRDF_PI + (1.0 - SBRDF_MIN_COSINE_WEIGHT) * tables;
+}
+
+// sbrdf_sample for warped tables at section w (unit ui above the horizon, u in [0, 1)^2):
+// (wo, pdf), vec4(0) for none.
+fn sbrdf_warp_sample(w: u32, ui: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
+    let fr = sbrdf_warp_frame(ui);
+    let a = vec3<f32>(sqrt(ui.x * ui.x + ui.y * ui.y), 0.0, ui.z);
+    let sl = sbrdf_warp_slices(w, fr.z);
+    var local: vec3<f32>;
+    if (u.x < SBRDF_MIN_COSINE_WEIGHT) {
+        let u0 = u.x / SBRDF_MIN_COSINE_WEIGHT;
+        let rad = sqrt(u0);
+        let cs = sbrdf_sincos_turns(u.y);
+        local = vec3<f32>(rad * cs.y, rad * cs.x, sqrt(max(1.0 - u0, 0.0)));
+    } else {
+        let u0 = min((u.x - SBRDF_MIN_COSINE_WEIGHT) / (1.0 - SBRDF_MIN_COSINE_WEIGHT), 1.0);
+        let s = sbrdf_warp_values_sample(w, sl, u0, u.y);
+        let uv = sbrdf_warp_vndf_sample(w, sl, s.x, s.y);
+        // The half vector of u: theta_m = ux^2 pi/2, phi_m = 2 pi uy - pi (uy - 1/2 turns).
+        let st = sbrdf_sincos_deg(uv.x * uv.x * 90.0);
+        let sp = sbrdf_sincos_turns(uv.y - 0.5);
+        let m = vec3<f32>(st.x * sp.y, st.x * sp.x, st.y);
+        let d = 2.0 * (a.x * m.x + a.z * m.z);
+        local = vec3<f32>(d * m.x - a.x, d * m.y, d * m.z - a.z);
+    }
+    local.z = abs(local.z);
+    if (!(local.z > 0.0)) {
+        return vec4<f32>(0.0);
+    }
+    // Back to the surface's frame (the inverse turn), and the density as sbrdf_pdf computes it.
+    let wo = vec3<f32>(fr.x * local.x - fr.y * local.y, fr.y * local.x + fr.x * local.y, local.z);
+    let back = sbrdf_upper(wo);
+    if (back.w == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let pdf = sbrdf_warp_pdf(w, ui, back.xyz);
+    if (!(pdf > 0.0 && sbrdf_finite(pdf))) {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(wo, pdf);
+}
+
+// ------------------------------------------------------------------ the model section
+
+// The model section at absolute word m (header word 19 when not 0) at the first nl of four
+// finite wavelengths, 0 in the other lanes: added to the records' series before the clamp.
+// Dispatched on the section's kind: 1, the factor model (sbrdf_fact4). `q` is the query's
+// incident side (the blend of the stored incidences), for a kind that needs it. A layout whose
+// model kind this text does not know is one whose version it does not know, which the host
+// refuses (the header's version, checked once); such a kind adds 0 here.
+fn sbrdf_model4(base: u32, m: u32, q: ptr<function, SbrdfQuery>, ui: vec3<f32>, uo: vec3<f32>,
+    lambda: vec4<f32>, nl: u32) -> vec4<f32> {
+    let kind = sbrdf_u(m + SBRDF_MODEL_KIND);
+    if (kind == SBRDF_MODEL_FACTOR) {
+        return sbrdf_fact4(base, m, ui, uo, lambda, nl);
+    }
+    return vec4<f32>(0.0);
+}
+
+// ------------------------------------------------------------------ evaluation
+
+// The coefficients c of the terms k0 .. k0 + 3 times their basis functions, summed, at the
+// first nl of four wavelengths (0 in the other lanes).
+fn sbrdf_series4(base: u32, c: vec4<f32>, k0: u32, tmax: u32, lambda: vec4<f32>, nl: u32) -> vec4<f32> {
+    var v = vec4<f32>(0.0);
+    v.x = dot(c, sbrdf_basis4(base, k0, tmax, lambda.x));
+    if (nl > 1u) {
+        v.y = dot(c, sbrdf_basis4(base, k0, tmax, lambda.y));
+    }
+    if (nl > 2u) {
+        v.z = dot(c, sbrdf_basis4(base, k0, tmax, lambda.z));
+    }
+    if (nl > 3u) {
+        v.w = dot(c, sbrdf_basis4(base, k0, tmax, lambda.w));
+    }
+    return v;
+}
+
+// rho at the first nl of four finite wavelengths ("Reconstruction", step 5: the records' series
+// plus the model section's value, clamped at 0), 0 in the other lanes. ui, uo: the query's unit
+// vectors; wo: uo in the records' frame. The coefficients are computed four terms at a time;
+// the first four are kept in *c0 (computed when `have0` is false), so that a caller evaluating
+// more wavelengths (sbrdf_eval_rgb) computes them once. (One call site of sbrdf_coef4 per entry
+// point also keeps the inlined code small: drivers inline every function.)
+fn sbrdf_rho4(base: u32, q: ptr<function, SbrdfQuery>, ui: vec3<f32>, uo: vec3<f32>, wo: vec3<f32>,
+    lambda: vec4<f32>, nl: u32, c0: ptr<function, vec4<f32>>, have0: bool) -> vec4<f32> {
+    let tmax = (*q).tmax;
+    var v = vec4<f32>(0.0);
+    for (var k0 = 0u; k0 < tmax; k0 = k0 + 4u) {
+        var c = *c0;
+        if (k0 > 0u || !have0) {
+            if ((*q).warp != 0u) {
+                c = sbrdf_warp_coef4((*q).warp, q, k0);
+            } else {
+                c = sbrdf_coef4(base, q, wo, k0);
+            }
+            if (k0 == 0u) {
+                *c0 = c;
+            }
+        }
+        v = v + sbrdf_series4(base, c, k0, tmax, lambda, nl);
+    }
+    let m = sbrdf_u(base + SBRDF_HDR_OFF_MODEL);
+    if (m != 0u && (*q).warp == 0u) {
+        v = v + sbrdf_model4(base, base + m, q, ui, uo, lambda, nl);
+    }
+    return max(v, vec4<f32>(0.0));
+}
+
+// rho at the first nl of four finite wavelengths (0 in the other lanes, and everywhere when a
+// direction is refused: zero, not finite, or below the horizon).
+fn sbrdf_eval_lanes(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda: vec4<f32>, nl: u32) -> vec4<f32> {
+    let ui = sbrdf_upper(wi);
+    let uo = sbrdf_upper(wo);
+    if (ui.w == 0.0 || uo.w == 0.0) {
+        return vec4<f32>(0.0);
+    }
+    var q: SbrdfQuery;
+    sbrdf_query_pair(base, ui.xyz, uo.xyz, &q);
+    var c0 = vec4<f32>(0.0);
+    return sbrdf_rho4(base, &q, ui.xyz, uo.xyz, sbrdf_to_records(&q, uo.xyz), lambda, nl, &c0, false);
 }
 
 // rho(wi, wo, lambda) in 1/sr ("Reconstruction"), never negative.
@@ -1223,155 +2183,203 @@ fn sbrdf_eval(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: f32) -> f32 {
     if (!sbrdf_finite(lambda_nm)) {
         return 0.0;
     }
-    let w = sbrdf_warp_section(base);
-    if (w != 0u) {
-        return sbrdf_warp_eval4(base, w, wi, wo, vec4<f32>(lambda_nm)).x;
-    }
-    var coef: array<f32, 256>;
-    let tmax = sbrdf_coefficients(base, wi, wo, &coef);
-    if (tmax == 0u) {
-        return 0.0;
-    }
-    var t: array<f32, 64>;
-    let m = sbrdf_model_terms(base, wi, wo, &t);
-    return sbrdf_rho(base, &coef, tmax, m, &t, lambda_nm);
+    return sbrdf_eval_lanes(base, wi, wo, vec4<f32>(lambda_nm), 1u).x;
 }
 
 // rho at four wavelengths (a hero-wavelength renderer's four, as pbrt-v4 samples them): what
 // depends on the directions alone (blending, SH, lobes, a factor model's tables) is computed
 // once; component i is sbrdf_eval(base, wi, wo, lambda_nm[i]), a non-finite one 0.
 fn sbrdf_eval4(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: vec4<f32>) -> vec4<f32> {
-    let w = sbrdf_warp_section(base);
-    if (w != 0u) {
-        return sbrdf_warp_eval4(base, w, wi, wo, lambda_nm);
-    }
-    var coef: array<f32, 256>;
-    let tmax = sbrdf_coefficients(base, wi, wo, &coef);
-    if (tmax == 0u) {
-        return vec4<f32>(0.0);
-    }
-    var t: array<f32, 64>;
-    let m = sbrdf_model_terms(base, wi, wo, &t);
-    var out = vec4<f32>(0.0);
-    for (var i = 0u; i < 4u; i = i + 1u) {
-        let l = lambda_nm[i];
-        if (sbrdf_finite(l)) {
-            out[i] = sbrdf_rho(base, &coef, tmax, m, &t, l);
-        }
-    }
-    return out;
+    let ok = vec4<bool>(sbrdf_finite(lambda_nm.x), sbrdf_finite(lambda_nm.y),
+        sbrdf_finite(lambda_nm.z), sbrdf_finite(lambda_nm.w));
+    let v = sbrdf_eval_lanes(base, wi, wo, select(vec4<f32>(0.0), lambda_nm, ok), 4u);
+    return select(vec4<f32>(0.0), v, ok);
 }
 
-// SBRDF_RGB_WEIGHTS[i] = M E(l_i) (xbar, ybar, zbar)(l_i) / sum_j E(l_j) ybar(l_j), at
-// l_i = 380 + 5 i nm, with E the CIE D65 illuminant and M the IEC 61966-2-1 XYZ -> linear sRGB
-// matrix: computed in f64 from src/decode/cie.rs and rounded to f32 (the Rust test
-// `gpu::tests::rgb_weights_match_cie_tables` recomputes them and requires equality).
+// The colour weights W_i, i = 4g .. 4g + 3 the columns of sbrdf_rgb_weights4(g):
+// W_i = M E(l_i) (xbar, ybar, zbar)(l_i) / sum_j E(l_j) ybar(l_j), at l_i = 380 + 5 i nm, with E the
+// CIE D65 illuminant and M the IEC 61966-2-1 XYZ -> linear sRGB matrix: computed in f64 from
+// src/decode/cie.rs and rounded to f32 (the Rust test `gpu::tests::rgb_weights_match_cie_tables`
+// recomputes them and requires equality; tools/gen_wgsl_rgb_weights.py writes them). 81
+// wavelengths: the last group's columns 1 to 3 are 0. A `switch` of constants rather than a
+// `const` array: indexed at run time, an array would be copied into private memory.
 // BEGIN GENERATED RGB WEIGHTS
-const SBRDF_RGB_WEIGHTS = array<vec3<f32>, 81>(
-    vec3<f32>(2.736401984e-05, -2.328276423e-05, 1.628262398e-04),
-    vec3<f32>(4.671593342e-05, -3.981535338e-05, 2.787752019e-04),
-    vec3<f32>(9.227084956e-05, -7.896481111e-05, 5.534677184e-04),
-    vec3<f32>(2.081311832e-04, -1.788624504e-04, 1.256573712e-03),
-    vec3<f32>(4.672996583e-04, -4.035583115e-04, 2.836231375e-03),
-    vec3<f32>(7.922822260e-04, -6.881969166e-04, 4.849435296e-03),
-    vec3<f32>(1.546609681e-03, -1.354031148e-03, 9.583766572e-03),
-    vec3<f32>(2.759892493e-03, -2.437515883e-03, 1.733913086e-02),
-    vec3<f32>(4.749136046e-03, -4.239784554e-03, 3.046238422e-02),
-    vec3<f32>(7.102948148e-03, -6.446093787e-03, 4.724521562e-02),
-    vec3<f32>(8.666965179e-03, -8.031009696e-03, 6.062049791e-02),
-    vec3<f32>(1.039745938e-02, -9.939746000e-03, 7.841189206e-02),
-    vec3<f32>(1.102490071e-02, -1.100533362e-02, 9.235608578e-02),
-    vec3<f32>(1.014692709e-02, -1.088432595e-02, 9.960128367e-02),
-    vec3<f32>(8.166212589e-03, -1.001640875e-02, 1.043098345e-01),
-    vec3<f32>(4.965676926e-03, -8.131371811e-03, 1.028559729e-01),
-    vec3<f32>(9.962173644e-04, -5.570829380e-03, 9.857185930e-02),
-    vec3<f32>(-3.401535563e-03, -2.270789351e-03, 8.884947747e-02),
-    vec3<f32>(-8.086264133e-03, 1.892001717e-03, 7.355158031e-02),
-    vec3<f32>(-1.267186739e-02, 6.375672761e-03, 5.930695683e-02),
-    vec3<f32>(-1.695454493e-02, 1.107122749e-02, 4.586860165e-02),
-    vec3<f32>(-2.018727921e-02, 1.525892224e-02, 3.296456113e-02),
-    vec3<f32>(-2.306396887e-02, 1.948674209e-02, 2.322185598e-02),
-    vec3<f32>(-2.715048566e-02, 2.505821921e-02, 1.659374498e-02),
-    vec3<f32>(-3.188619763e-02, 3.168791905e-02, 1.148072910e-02),
-    vec3<f32>(-3.720433265e-02, 3.958408162e-02, 7.266716566e-03),
-    vec3<f32>(-4.192572087e-02, 4.800221324e-02, 3.321780590e-03),
-    vec3<f32>(-4.508018121e-02, 5.619459227e-02, -2.205446217e-04),
-    vec3<f32>(-4.588321596e-02, 6.315612793e-02, -2.905802568e-03),
-    vec3<f32>(-4.487327859e-02, 6.957427412e-02, -4.785246216e-03),
-    vec3<f32>(-4.126092792e-02, 7.430807501e-02, -6.219778676e-03),
-    vec3<f32>(-3.460315242e-02, 7.519462705e-02, -7.150949910e-03),
-    vec3<f32>(-2.645576373e-02, 7.454419136e-02, -7.755014580e-03),
-    vec3<f32>(-1.715937443e-02, 7.352319360e-02, -8.175541647e-03),
-    vec3<f32>(-6.358697079e-03, 7.122249156e-02, -8.348369971e-03),
-    vec3<f32>(5.758139770e-03, 6.661267579e-02, -8.177512325e-03),
-    vec3<f32>(1.869347319e-02, 6.106454879e-02, -7.842326537e-03),
-    vec3<f32>(3.217719868e-02, 5.473833531e-02, -7.382581942e-03),
-    vec3<f32>(4.581839591e-02, 4.774422199e-02, -6.816209294e-03),
-    vec3<f32>(6.009481102e-02, 4.094711691e-02, -6.268387195e-03),
-    vec3<f32>(7.392965257e-02, 3.372985125e-02, -5.651682150e-03),
-    vec3<f32>(8.360785246e-02, 2.544838935e-02, -4.824145231e-03),
-    vec3<f32>(9.070666879e-02, 1.786104217e-02, -4.032601137e-03),
-    vec3<f32>(9.958435595e-02, 1.182419062e-02, -3.459956497e-03),
-    vec3<f32>(1.052668318e-01, 6.579617504e-03, -2.926333109e-03),
-    vec3<f32>(1.069405451e-01, 2.130769892e-03, -2.411489375e-03),
-    vec3<f32>(1.049539819e-01, -1.181861269e-03, -1.967440592e-03),
-    vec3<f32>(9.910125285e-02, -3.422832349e-03, -1.572193112e-03),
-    vec3<f32>(9.059123695e-02, -4.696817603e-03, -1.241970807e-03),
-    vec3<f32>(7.853749394e-02, -5.092732143e-03, -9.516475839e-04),
-    vec3<f32>(6.598515064e-02, -4.939187318e-03, -7.182428380e-04),
-    vec3<f32>(5.619686842e-02, -4.661577754e-03, -5.551548093e-04),
-    vec3<f32>(4.682838172e-02, -4.186216742e-03, -4.249732592e-04),
-    vec3<f32>(3.705943376e-02, -3.499369835e-03, -3.131919948e-04),
-    vec3<f32>(2.855920233e-02, -2.800999442e-03, -2.285952505e-04),
-    vec3<f32>(2.211217955e-02, -2.230354119e-03, -1.692601509e-04),
-    vec3<f32>(1.672285981e-02, -1.721142093e-03, -1.236955577e-04),
-    vec3<f32>(1.246425696e-02, -1.299640746e-03, -9.008890629e-05),
-    vec3<f32>(9.111211635e-03, -9.598798351e-04, -6.461757584e-05),
-    vec3<f32>(6.474243943e-03, -6.876727566e-04, -4.521357914e-05),
-    vec3<f32>(4.646052606e-03, -4.973422620e-04, -3.196296893e-05),
-    vec3<f32>(3.091558581e-03, -3.332476772e-04, -2.097925790e-05),
-    vec3<f32>(2.010404831e-03, -2.175216214e-04, -1.354043889e-05),
-    vec3<f32>(1.422151458e-03, -1.542119862e-04, -9.536042853e-06),
-    vec3<f32>(1.033581677e-03, -1.121970417e-04, -6.915508948e-06),
-    vec3<f32>(7.521391381e-04, -8.164596511e-05, -5.032428817e-06),
-    vec3<f32>(5.470285541e-04, -5.938085451e-05, -3.660072480e-06),
-    vec3<f32>(3.549552639e-04, -3.853099042e-05, -2.374942142e-06),
-    vec3<f32>(2.269532852e-04, -2.463615783e-05, -1.518504178e-06),
-    vec3<f32>(1.711882651e-04, -1.858277210e-05, -1.145390456e-06),
-    vec3<f32>(1.278709242e-04, -1.388059445e-05, -8.555626323e-07),
-    vec3<f32>(9.210098506e-05, -9.997714187e-06, -6.162314889e-07),
-    vec3<f32>(6.584058428e-05, -7.147105862e-06, -4.405276570e-07),
-    vec3<f32>(4.194105350e-05, -4.552771316e-06, -2.806201849e-07),
-    vec3<f32>(2.685155232e-05, -2.914781135e-06, -1.796589544e-07),
-    vec3<f32>(1.641277595e-05, -1.781634296e-06, -1.098149838e-07),
-    vec3<f32>(9.799869076e-06, -1.063791615e-06, -6.556926735e-08),
-    vec3<f32>(8.446046195e-06, -9.168316524e-07, -5.651110868e-08),
-    vec3<f32>(7.052022738e-06, -7.655087870e-07, -4.718383906e-08),
-    vec3<f32>(4.855772204e-06, -5.271020882e-07, -3.248912606e-08),
-    vec3<f32>(3.343134722e-06, -3.629027958e-07, -2.236833119e-08),
-);
+fn sbrdf_rgb_weights4(g: u32) -> mat4x3<f32> {
+    switch (g) {
+        case 0u: { // 380 to 395 nm
+            return mat4x3<f32>(
+                vec3<f32>(2.736401984e-05, -2.328276423e-05, 1.628262398e-04),
+                vec3<f32>(4.671593342e-05, -3.981535338e-05, 2.787752019e-04),
+                vec3<f32>(9.227084956e-05, -7.896481111e-05, 5.534677184e-04),
+                vec3<f32>(2.081311832e-04, -1.788624504e-04, 1.256573712e-03));
+        }
+        case 1u: { // 400 to 415 nm
+            return mat4x3<f32>(
+                vec3<f32>(4.672996583e-04, -4.035583115e-04, 2.836231375e-03),
+                vec3<f32>(7.922822260e-04, -6.881969166e-04, 4.849435296e-03),
+                vec3<f32>(1.546609681e-03, -1.354031148e-03, 9.583766572e-03),
+                vec3<f32>(2.759892493e-03, -2.437515883e-03, 1.733913086e-02));
+        }
+        case 2u: { // 420 to 435 nm
+            return mat4x3<f32>(
+                vec3<f32>(4.749136046e-03, -4.239784554e-03, 3.046238422e-02),
+                vec3<f32>(7.102948148e-03, -6.446093787e-03, 4.724521562e-02),
+                vec3<f32>(8.666965179e-03, -8.031009696e-03, 6.062049791e-02),
+                vec3<f32>(1.039745938e-02, -9.939746000e-03, 7.841189206e-02));
+        }
+        case 3u: { // 440 to 455 nm
+            return mat4x3<f32>(
+                vec3<f32>(1.102490071e-02, -1.100533362e-02, 9.235608578e-02),
+                vec3<f32>(1.014692709e-02, -1.088432595e-02, 9.960128367e-02),
+                vec3<f32>(8.166212589e-03, -1.001640875e-02, 1.043098345e-01),
+                vec3<f32>(4.965676926e-03, -8.131371811e-03, 1.028559729e-01));
+        }
+        case 4u: { // 460 to 475 nm
+            return mat4x3<f32>(
+                vec3<f32>(9.962173644e-04, -5.570829380e-03, 9.857185930e-02),
+                vec3<f32>(-3.401535563e-03, -2.270789351e-03, 8.884947747e-02),
+                vec3<f32>(-8.086264133e-03, 1.892001717e-03, 7.355158031e-02),
+                vec3<f32>(-1.267186739e-02, 6.375672761e-03, 5.930695683e-02));
+        }
+        case 5u: { // 480 to 495 nm
+            return mat4x3<f32>(
+                vec3<f32>(-1.695454493e-02, 1.107122749e-02, 4.586860165e-02),
+                vec3<f32>(-2.018727921e-02, 1.525892224e-02, 3.296456113e-02),
+                vec3<f32>(-2.306396887e-02, 1.948674209e-02, 2.322185598e-02),
+                vec3<f32>(-2.715048566e-02, 2.505821921e-02, 1.659374498e-02));
+        }
+        case 6u: { // 500 to 515 nm
+            return mat4x3<f32>(
+                vec3<f32>(-3.188619763e-02, 3.168791905e-02, 1.148072910e-02),
+                vec3<f32>(-3.720433265e-02, 3.958408162e-02, 7.266716566e-03),
+                vec3<f32>(-4.192572087e-02, 4.800221324e-02, 3.321780590e-03),
+                vec3<f32>(-4.508018121e-02, 5.619459227e-02, -2.205446217e-04));
+        }
+        case 7u: { // 520 to 535 nm
+            return mat4x3<f32>(
+                vec3<f32>(-4.588321596e-02, 6.315612793e-02, -2.905802568e-03),
+                vec3<f32>(-4.487327859e-02, 6.957427412e-02, -4.785246216e-03),
+                vec3<f32>(-4.126092792e-02, 7.430807501e-02, -6.219778676e-03),
+                vec3<f32>(-3.460315242e-02, 7.519462705e-02, -7.150949910e-03));
+        }
+        case 8u: { // 540 to 555 nm
+            return mat4x3<f32>(
+                vec3<f32>(-2.645576373e-02, 7.454419136e-02, -7.755014580e-03),
+                vec3<f32>(-1.715937443e-02, 7.352319360e-02, -8.175541647e-03),
+                vec3<f32>(-6.358697079e-03, 7.122249156e-02, -8.348369971e-03),
+                vec3<f32>(5.758139770e-03, 6.661267579e-02, -8.177512325e-03));
+        }
+        case 9u: { // 560 to 575 nm
+            return mat4x3<f32>(
+                vec3<f32>(1.869347319e-02, 6.106454879e-02, -7.842326537e-03),
+                vec3<f32>(3.217719868e-02, 5.473833531e-02, -7.382581942e-03),
+                vec3<f32>(4.581839591e-02, 4.774422199e-02, -6.816209294e-03),
+                vec3<f32>(6.009481102e-02, 4.094711691e-02, -6.268387195e-03));
+        }
+        case 10u: { // 580 to 595 nm
+            return mat4x3<f32>(
+                vec3<f32>(7.392965257e-02, 3.372985125e-02, -5.651682150e-03),
+                vec3<f32>(8.360785246e-02, 2.544838935e-02, -4.824145231e-03),
+                vec3<f32>(9.070666879e-02, 1.786104217e-02, -4.032601137e-03),
+                vec3<f32>(9.958435595e-02, 1.182419062e-02, -3.459956497e-03));
+        }
+        case 11u: { // 600 to 615 nm
+            return mat4x3<f32>(
+                vec3<f32>(1.052668318e-01, 6.579617504e-03, -2.926333109e-03),
+                vec3<f32>(1.069405451e-01, 2.130769892e-03, -2.411489375e-03),
+                vec3<f32>(1.049539819e-01, -1.181861269e-03, -1.967440592e-03),
+                vec3<f32>(9.910125285e-02, -3.422832349e-03, -1.572193112e-03));
+        }
+        case 12u: { // 620 to 635 nm
+            return mat4x3<f32>(
+                vec3<f32>(9.059123695e-02, -4.696817603e-03, -1.241970807e-03),
+                vec3<f32>(7.853749394e-02, -5.092732143e-03, -9.516475839e-04),
+                vec3<f32>(6.598515064e-02, -4.939187318e-03, -7.182428380e-04),
+                vec3<f32>(5.619686842e-02, -4.661577754e-03, -5.551548093e-04));
+        }
+        case 13u: { // 640 to 655 nm
+            return mat4x3<f32>(
+                vec3<f32>(4.682838172e-02, -4.186216742e-03, -4.249732592e-04),
+                vec3<f32>(3.705943376e-02, -3.499369835e-03, -3.131919948e-04),
+                vec3<f32>(2.855920233e-02, -2.800999442e-03, -2.285952505e-04),
+                vec3<f32>(2.211217955e-02, -2.230354119e-03, -1.692601509e-04));
+        }
+        case 14u: { // 660 to 675 nm
+            return mat4x3<f32>(
+                vec3<f32>(1.672285981e-02, -1.721142093e-03, -1.236955577e-04),
+                vec3<f32>(1.246425696e-02, -1.299640746e-03, -9.008890629e-05),
+                vec3<f32>(9.111211635e-03, -9.598798351e-04, -6.461757584e-05),
+                vec3<f32>(6.474243943e-03, -6.876727566e-04, -4.521357914e-05));
+        }
+        case 15u: { // 680 to 695 nm
+            return mat4x3<f32>(
+                vec3<f32>(4.646052606e-03, -4.973422620e-04, -3.196296893e-05),
+                vec3<f32>(3.091558581e-03, -3.332476772e-04, -2.097925790e-05),
+                vec3<f32>(2.010404831e-03, -2.175216214e-04, -1.354043889e-05),
+                vec3<f32>(1.422151458e-03, -1.542119862e-04, -9.536042853e-06));
+        }
+        case 16u: { // 700 to 715 nm
+            return mat4x3<f32>(
+                vec3<f32>(1.033581677e-03, -1.121970417e-04, -6.915508948e-06),
+                vec3<f32>(7.521391381e-04, -8.164596511e-05, -5.032428817e-06),
+                vec3<f32>(5.470285541e-04, -5.938085451e-05, -3.660072480e-06),
+                vec3<f32>(3.549552639e-04, -3.853099042e-05, -2.374942142e-06));
+        }
+        case 17u: { // 720 to 735 nm
+            return mat4x3<f32>(
+                vec3<f32>(2.269532852e-04, -2.463615783e-05, -1.518504178e-06),
+                vec3<f32>(1.711882651e-04, -1.858277210e-05, -1.145390456e-06),
+                vec3<f32>(1.278709242e-04, -1.388059445e-05, -8.555626323e-07),
+                vec3<f32>(9.210098506e-05, -9.997714187e-06, -6.162314889e-07));
+        }
+        case 18u: { // 740 to 755 nm
+            return mat4x3<f32>(
+                vec3<f32>(6.584058428e-05, -7.147105862e-06, -4.405276570e-07),
+                vec3<f32>(4.194105350e-05, -4.552771316e-06, -2.806201849e-07),
+                vec3<f32>(2.685155232e-05, -2.914781135e-06, -1.796589544e-07),
+                vec3<f32>(1.641277595e-05, -1.781634296e-06, -1.098149838e-07));
+        }
+        case 19u: { // 760 to 775 nm
+            return mat4x3<f32>(
+                vec3<f32>(9.799869076e-06, -1.063791615e-06, -6.556926735e-08),
+                vec3<f32>(8.446046195e-06, -9.168316524e-07, -5.651110868e-08),
+                vec3<f32>(7.052022738e-06, -7.655087870e-07, -4.718383906e-08),
+                vec3<f32>(4.855772204e-06, -5.271020882e-07, -3.248912606e-08));
+        }
+        case 20u: { // 780 nm
+            return mat4x3<f32>(
+                vec3<f32>(3.343134722e-06, -3.629027958e-07, -2.236833119e-08),
+                vec3<f32>(0.0),
+                vec3<f32>(0.0),
+                vec3<f32>(0.0));
+        }
+        default: {
+            return mat4x3<f32>();
+        }
+    }
+}
 // END GENERATED RGB WEIGHTS
 
 // Linear sRGB under D65 of rho(wi, wo, .) (Decoder::eval_linear_srgb with Illuminant::D65):
-// the coefficients (and a factor model's angular terms) once, then the series (plus F) at each
-// of the 81 wavelengths, clamped at 0.
+// the query and its first four coefficients once, then the series (plus F) at the 81
+// wavelengths four at a time, clamped at 0 (a file of more than four terms computes its further
+// coefficients for each group of four wavelengths).
 fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    let w = sbrdf_warp_section(base);
-    if (w != 0u) {
-        return sbrdf_warp_eval_rgb(base, w, wi, wo);
-    }
-    var coef: array<f32, 256>;
-    let tmax = sbrdf_coefficients(base, wi, wo, &coef);
-    if (tmax == 0u) {
+    let ui = sbrdf_upper(wi);
+    let uo = sbrdf_upper(wo);
+    if (ui.w == 0.0 || uo.w == 0.0) {
         return vec3<f32>(0.0);
     }
-    var t: array<f32, 64>;
-    let m = sbrdf_model_terms(base, wi, wo, &t);
+    var q: SbrdfQuery;
+    sbrdf_query_pair(base, ui.xyz, uo.xyz, &q);
+    let wr = sbrdf_to_records(&q, uo.xyz);
+    var c0 = vec4<f32>(0.0);
     var rgb = vec3<f32>(0.0);
-    for (var i = 0u; i < 81u; i = i + 1u) {
-        let lambda = 380.0 + 5.0 * f32(i);
-        let s = sbrdf_rho(base, &coef, tmax, m, &t, lambda);
-        rgb = rgb + s * SBRDF_RGB_WEIGHTS[i];
+    for (var g = 0u; g < 21u; g = g + 1u) {
+        let lambda = vec4<f32>(380.0 + 20.0 * f32(g)) + vec4<f32>(0.0, 5.0, 10.0, 15.0);
+        let nl = select(4u, 1u, g == 20u);
+        let rho = sbrdf_rho4(base, &q, ui.xyz, uo.xyz, wr, lambda, nl, &c0, g > 0u);
+        rgb = rgb + sbrdf_rgb_weights4(g) * rho;
     }
     return rgb;
 }
@@ -1381,30 +2389,21 @@ fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
 // sbrdf_pdf(base, wi, wo) -> f32 and sbrdf_sample(base, wi, u) -> vec4<f32> (xyz the drawn
 // direction, w its pdf): the mixture of `Decoder::sample` / `Decoder::pdf` (spec/EVALUATION.md,
 // "Importance sampling"; spec/GPU_LAYOUT.md, "Sampling section") in f32. The records are blended
-// as for evaluation; the mixture is the cosine plus one proposal per lobe (cosine power about the
-// peak, von Mises-Fisher, GGX visible normals reflecting wi), weighted by the energies the layout
-// stores, the cosine keeping at least SBRDF_MIN_COSINE_WEIGHT; a draw below the horizon is
-// mirrored above it, and the pdf counts both images. u.x chooses the component exactly as the CPU
-// does (its rescaled remainder then draws from it), so that the same u gives the same direction
-// up to f32 rounding. A layout without a sampling section (word 18 = 0) samples the cosine:
-// pdf = cos(theta_o) / pi. sbrdf_sample returns vec4(0) where the CPU returns None (wi zero, not
-// finite or below the horizon, u not finite, a degenerate draw); sbrdf_pdf returns 0 where the
-// CPU's pdf is 0 (either direction zero, not finite or below the horizon).
-//
-// The block repeats the query's blending of sbrdf_coefficients (sbrdf_smp_query) rather than
-// calling into it, so that it needs no change there.
+// as for evaluation (sbrdf_query); the mixture is the cosine plus one proposal per lobe (cosine
+// power about the peak, von Mises-Fisher, GGX visible normals reflecting wi), weighted by the
+// energies the layout stores, the cosine keeping at least SBRDF_MIN_COSINE_WEIGHT; a draw below
+// the horizon is mirrored above it, and the pdf counts both images. u.x chooses the component
+// exactly as the CPU does (its rescaled remainder then draws from it), so that the same u gives
+// the same direction up to f32 rounding. A layout without a sampling section (word 18 = 0)
+// samples the cosine: pdf = cos(theta_o) / pi. sbrdf_sample returns vec4(0) where the CPU
+// returns None (wi zero, not finite or below the horizon, u not finite, a degenerate draw);
+// sbrdf_pdf returns 0 where the CPU's pdf is 0 (either direction zero, not finite or below the
+// horizon). The components are not stored: sbrdf_smp_walk goes through them in the CPU's order
+// and computes what each pass needs (energies, densities, the chosen one).
 
-const SBRDF_MAX_COMPONENTS: u32 = 33u; // the cosine + 4 blended records x 8 lobes
 const SBRDF_MIN_COSINE_WEIGHT: f32 = 0.1; // draw.rs MIN_COSINE_WEIGHT
 const SBRDF_ONE_BELOW: f32 = 0.99999994; // the largest f32 below 1: u is clamped to [0, this]
-
-// The query in the records' frame: the blend, and the rotation (cos, sin) into that frame
-// (isotropic files; (1, 0) otherwise).
-struct SbrdfQuery {
-    bl: SbrdfBlend,
-    rot: vec2<f32>,
-    isotropic: bool,
-}
+const SBRDF_SHARED: u32 = 0xffffffffu; // a component's record index when the lobe is shared
 
 // One proposal: kind 0 cosine, 1 cosine power (a = (p, n)), 2 von Mises-Fisher (a = (p, kappa),
 // m = 1 - exp(-2 kappa)), 3 GGX visible normals (a = (ax, ay, axis.x, axis.y), m = k =
@@ -1413,15 +2412,6 @@ struct SbrdfShape {
     kind: u32,
     a: vec4<f32>,
     m: f32,
-}
-
-struct SbrdfMix {
-    n: u32,
-    kind: array<u32, 33>,
-    a: array<vec4<f32>, 33>,
-    m: array<f32, 33>,
-    w: array<f32, 33>,
-    wi: vec3<f32>,
 }
 
 // exp(x) - 1, accurate relative to the result for small |x| (Taylor to x^10 below 1/2).
@@ -1434,125 +2424,16 @@ fn sbrdf_expm1(x: f32) -> f32 {
     return exp(x) - 1.0;
 }
 
-// The query's blend and frame, as sbrdf_coefficients makes them (step 3 and 4), for the unit
-// incident vector ui (z >= 0).
-fn sbrdf_smp_query(base: u32, ui: vec3<f32>) -> SbrdfQuery {
-    var q: SbrdfQuery;
-    let inc_layout = sbrdf_u(base + 3u);
-    q.isotropic = inc_layout == 0u;
-    q.rot = vec2<f32>(1.0, 0.0);
-    let n_rec = sbrdf_u(base + 8u);
-    let n_theta = sbrdf_u(base + 9u);
-    let n_phi = sbrdf_u(base + 10u);
-    let off_th = base + sbrdf_u(base + 15u);
-    let off_ph = base + sbrdf_u(base + 16u);
-    let r = sqrt(ui.x * ui.x + ui.y * ui.y);
-    let theta_q = sbrdf_atan2_deg(r, ui.z);
-    var wq = ui;
-    var phi_q = 0.0;
-    if (q.isotropic) {
-        if (r > 0.0) {
-            q.rot = vec2<f32>(ui.x / r, ui.y / r);
-        }
-        wq = vec3<f32>(r, 0.0, ui.z);
-    } else if (r > 0.0) {
-        phi_q = sbrdf_wrap360(sbrdf_atan2_deg(ui.y, ui.x));
-    }
-    var bl: SbrdfBlend;
-    bl.n = 0u;
-    if (inc_layout == 2u) {
-        var best = 0u;
-        var best_cos = -2.0;
-        for (var i = 0u; i < n_rec; i = i + 1u) {
-            let e = sbrdf_rec(base, i);
-            let cs = dot(sbrdf_dir(sbrdf_f(e), sbrdf_f(e + 1u)), ui);
-            if (cs > best_cos) {
-                best_cos = cs;
-                best = i;
-            }
-        }
-        let e = sbrdf_rec(base, best);
-        bl.n = 1u;
-        bl.rec[0] = best;
-        bl.w[0] = 1.0;
-        bl.theta = sbrdf_f(e);
-        bl.phi = sbrdf_f(e + 1u);
-        bl.wi = sbrdf_dir(bl.theta, bl.phi);
-    } else {
-        let th0 = sbrdf_f(off_th);
-        let th1 = sbrdf_f(off_th + n_theta - 1u);
-        bl.theta = clamp(theta_q, th0, th1);
-        let bt = sbrdf_bracket(off_th, n_theta, theta_q);
-        let i = bitcast<u32>(bt.x);
-        let t = bt.y;
-        let i2 = min(i + 1u, n_theta - 1u);
-        if (q.isotropic) {
-            sbrdf_smp_blend_add(&bl, i, 1.0 - t);
-            sbrdf_smp_blend_add(&bl, i2, t);
-            bl.phi = 0.0;
-            bl.wi = select(sbrdf_dir(bl.theta, 0.0), wq, bl.theta == theta_q);
-        } else {
-            var j = 0u;
-            var j2 = 0u;
-            var u = 0.0;
-            let p = phi_q;
-            if (n_phi > 1u) {
-                let p0 = sbrdf_f(off_ph);
-                let p1 = sbrdf_f(off_ph + n_phi - 1u);
-                if (p < p0 || p >= p1) {
-                    j = n_phi - 1u;
-                    j2 = 0u;
-                    u = sbrdf_wrap360(p - p1) / (p0 + 360.0 - p1);
-                } else {
-                    let bp = sbrdf_bracket(off_ph, n_phi, p);
-                    j = bitcast<u32>(bp.x);
-                    u = bp.y;
-                    j2 = j + 1u;
-                }
-            }
-            sbrdf_smp_blend_add(&bl, i * n_phi + j, (1.0 - t) * (1.0 - u));
-            sbrdf_smp_blend_add(&bl, i * n_phi + j2, (1.0 - t) * u);
-            sbrdf_smp_blend_add(&bl, i2 * n_phi + j, t * (1.0 - u));
-            sbrdf_smp_blend_add(&bl, i2 * n_phi + j2, t * u);
-            if (bl.n == 0u) {
-                sbrdf_blend_add(&bl, i * n_phi + j, 1.0); // as the CPU (no weight > 0)
-            }
-            if (n_phi == 1u) {
-                bl.phi = sbrdf_f(off_ph);
-                bl.wi = sbrdf_dir(bl.theta, bl.phi);
-            } else {
-                bl.phi = phi_q;
-                bl.wi = select(sbrdf_dir(bl.theta, bl.phi), ui, bl.theta == theta_q);
-            }
-        }
-    }
-    q.bl = bl;
-    return q;
-}
 
-// Record rec with weight w added to the query's blend as the CPU's Blend::push adds it: a weight
-// <= 0 is dropped, a record already there gets the weight added, records stay in the order they
-// were first added (not sorted: the mixture's components follow this order, and u.x picks among
-// them in it).
-fn sbrdf_smp_blend_add(bl: ptr<function, SbrdfBlend>, rec: u32, w: f32) {
-    if (!(w > 0.0)) {
-        return;
-    }
-    sbrdf_blend_add(bl, rec, w);
-}
-
-// A local-frame vector in the records' frame, and back.
-fn sbrdf_smp_in(q: SbrdfQuery, v: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(q.rot.x * v.x + q.rot.y * v.y, -q.rot.y * v.x + q.rot.x * v.y, v.z);
-}
-
-fn sbrdf_smp_out(q: SbrdfQuery, v: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(q.rot.x * v.x - q.rot.y * v.y, q.rot.y * v.x + q.rot.x * v.y, v.z);
-}
-
-// Absolute word of record r's weights: background energy, then (energy, ln width) per lobe.
+// Absolute word of record r's sampling weights (background energy, then per lobe its weights).
 fn sbrdf_smp_weights(base: u32, r: u32) -> u32 {
-    return base + sbrdf_u(base + sbrdf_u(base + 18u) + r);
+    let s = base + sbrdf_u(base + SBRDF_HDR_OFF_SAMPLING);
+    return base + sbrdf_u(s + SBRDF_SMP_WORDS * r + SBRDF_SMP_OFF_WEIGHTS);
+}
+
+// Absolute word of lobe li's sampling weights (energy, ln width) in record r's.
+fn sbrdf_smp_lobe(base: u32, r: u32, li: u32) -> u32 {
+    return sbrdf_smp_weights(base, r) + SBRDF_SW_WORDS + SBRDF_SWL_WORDS * li;
 }
 
 // The GGX roughness whose distribution falls to half its peak where (1 + b s)^(-c) does
@@ -1573,6 +2454,7 @@ fn sbrdf_ggx_alpha(sin2: bool, b: f32, c: f32) -> f32 {
     return clamp(sqrt(1.0 / (1.0 + b_ggx)), 1e-6, 1.0);
 }
 
+
 // GGX visible normals of roughness (ax, ay) along the surface axis (cos psi, sin psi), for wi.
 fn sbrdf_ggx_shape(ax: f32, ay: f32, axis: vec2<f32>, wi: vec3<f32>) -> SbrdfShape {
     let cz = max(wi.z, 0.0);
@@ -1582,187 +2464,176 @@ fn sbrdf_ggx_shape(ax: f32, ay: f32, axis: vec2<f32>, wi: vec3<f32>) -> SbrdfSha
     return SbrdfShape(3u, vec4<f32>(ax, ay, axis.x, axis.y), 0.5 / (cz + sqrt(cz * cz + t)));
 }
 
+
 fn sbrdf_vmf_shape(p: vec3<f32>, ln_b: f32) -> SbrdfShape {
     let kappa = 2.0 * exp(-ln_b);
     return SbrdfShape(2u, vec4<f32>(p, kappa), -sbrdf_expm1(-2.0 * kappa));
 }
 
-// The axis angle psi of lobe li blended over the records (as sbrdf_add_shared_lobe blends it).
-fn sbrdf_smp_axis(base: u32, bl: SbrdfBlend, li: u32) -> f32 {
-    var x = 0.0;
-    var yv = 0.0;
-    var tw = 0.0;
-    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-        if (b < bl.n) {
-            let cs = sbrdf_sincos_deg(2.0 * sbrdf_shared_par(base, bl, b, li, 5u));
-            x = x + bl.w[b] * cs.y;
-            yv = yv + bl.w[b] * cs.x;
-            tw = tw + abs(bl.w[b]);
-        }
-    }
-    var psi = sbrdf_shared_par(base, bl, 0u, li, 5u);
-    if (sqrt(x * x + yv * yv) > 1e-9 * tw) {
-        psi = 0.5 * sbrdf_atan2_deg(yv, x);
-        if (psi < 0.0) {
-            psi = psi + 180.0;
-        }
-        if (psi >= 180.0) {
-            psi = 0.0;
-        }
-    }
-    return psi;
-}
 
-// Lobe li of blended record b alone (its own peak and parameters).
-fn sbrdf_smp_own_shape(base: u32, bl: SbrdfBlend, b: u32, li: u32, wi: vec3<f32>) -> SbrdfShape {
-    let e = sbrdf_rec(base, bl.rec[b]);
-    let lt = base + sbrdf_u(e + 10u) + 3u * li;
-    let kind = sbrdf_u(lt);
-    let par = base + sbrdf_u(lt + 2u);
-    if (kind == 1u) {
-        return sbrdf_vmf_shape(sbrdf_rec_peak(e), sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]) + 2u + 2u * li));
+// The shape of lobe li's component (records' frame), for blended record b's own lobe, or for
+// the lobe every blended record shares (b = SBRDF_SHARED: blended as for evaluation); `kind`
+// is the lobe's kind (1 to 5).
+fn sbrdf_smp_shape(base: u32, q: ptr<function, SbrdfQuery>, li: u32, b: u32, kind: u32) -> SbrdfShape {
+    let wi = (*q).wi;
+    if (b != SBRDF_SHARED) {
+        let r = (*q).rec[b];
+        let e = sbrdf_rec(base, r);
+        let par = base + sbrdf_u(sbrdf_lobe(base, e, li) + SBRDF_LOBE_OFF_PARAMETERS);
+        if (kind == 1u) {
+            return sbrdf_vmf_shape(sbrdf_rec_peak(e), sbrdf_f(sbrdf_smp_lobe(base, r, li) + SBRDF_SWL_LN_WIDTH));
+        }
+        if (kind == 4u) {
+            return SbrdfShape(1u, vec4<f32>(sbrdf_rec_peak(e), sbrdf_f(par)), 0.0);
+        }
+        if (kind == 5u) {
+            let c = sbrdf_f(par + 2u);
+            let sc = sbrdf_sincos_deg(sbrdf_f(par + 5u));
+            return sbrdf_ggx_shape(sbrdf_ggx_alpha(true, sbrdf_f(par), c),
+                sbrdf_ggx_alpha(true, sbrdf_f(par + 1u), c), vec2<f32>(sc.y, sc.x), wi);
+        }
+        let alpha = sbrdf_ggx_alpha(kind == 3u, sbrdf_f(par), sbrdf_f(par + 1u));
+        return sbrdf_ggx_shape(alpha, alpha, vec2<f32>(1.0, 0.0), wi);
     }
-    if (kind == 4u) {
-        return SbrdfShape(1u, vec4<f32>(sbrdf_rec_peak(e), sbrdf_f(par)), 0.0);
-    }
-    if (kind == 5u) {
-        let c = sbrdf_f(par + 2u);
-        let sc = sbrdf_sincos_deg(sbrdf_f(par + 5u));
-        return sbrdf_ggx_shape(sbrdf_ggx_alpha(true, sbrdf_f(par), c),
-            sbrdf_ggx_alpha(true, sbrdf_f(par + 1u), c), vec2<f32>(sc.y, sc.x), wi);
-    }
-    let alpha = sbrdf_ggx_alpha(kind == 3u, sbrdf_f(par), sbrdf_f(par + 1u));
-    return sbrdf_ggx_shape(alpha, alpha, vec2<f32>(1.0, 0.0), wi);
-}
-
-// Lobe li shared by every blended record (bl.n > 1), its shape blended as for evaluation.
-fn sbrdf_smp_shared_shape(base: u32, bl: SbrdfBlend, isotropic: bool, kind: u32, li: u32,
-    wi: vec3<f32>) -> SbrdfShape {
     if (kind == 1u) {
         var s = 0.0;
         var ws = 0.0;
-        for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-            if (b < bl.n) {
-                s = s + bl.w[b] * sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]) + 2u + 2u * li);
-                ws = ws + bl.w[b];
+        for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
+            if (i < (*q).n) {
+                s = s + (*q).w[i] * sbrdf_f(sbrdf_smp_lobe(base, (*q).rec[i], li) + SBRDF_SWL_LN_WIDTH);
+                ws = ws + (*q).w[i];
             }
         }
-        return sbrdf_vmf_shape(sbrdf_blended_peak(base, bl, isotropic), s / ws);
+        return sbrdf_vmf_shape(sbrdf_blended_peak(base, q), s / ws);
     }
     if (kind == 4u) {
-        return SbrdfShape(1u, vec4<f32>(sbrdf_blended_peak(base, bl, isotropic),
-            sbrdf_shared_geo(base, bl, li, 0u)), 0.0);
+        return SbrdfShape(1u, vec4<f32>(sbrdf_blended_peak(base, q), sbrdf_shared_geo(base, q, li, 0u)), 0.0);
     }
     if (kind == 5u) {
-        let c = sbrdf_shared_geo(base, bl, li, 2u);
-        let sc = sbrdf_sincos_deg(sbrdf_smp_axis(base, bl, li));
-        return sbrdf_ggx_shape(sbrdf_ggx_alpha(true, sbrdf_shared_geo(base, bl, li, 0u), c),
-            sbrdf_ggx_alpha(true, sbrdf_shared_geo(base, bl, li, 1u), c), vec2<f32>(sc.y, sc.x), wi);
+        let c = sbrdf_shared_geo(base, q, li, 2u);
+        let sc = sbrdf_sincos_deg(sbrdf_shared_axis(base, q, li));
+        return sbrdf_ggx_shape(sbrdf_ggx_alpha(true, sbrdf_shared_geo(base, q, li, 0u), c),
+            sbrdf_ggx_alpha(true, sbrdf_shared_geo(base, q, li, 1u), c), vec2<f32>(sc.y, sc.x), wi);
     }
-    let alpha = sbrdf_ggx_alpha(kind == 3u, sbrdf_shared_geo(base, bl, li, 0u),
-        sbrdf_shared_geo(base, bl, li, 1u));
+    let alpha = sbrdf_ggx_alpha(kind == 3u, sbrdf_shared_geo(base, q, li, 0u),
+        sbrdf_shared_geo(base, q, li, 1u));
     return sbrdf_ggx_shape(alpha, alpha, vec2<f32>(1.0, 0.0), wi);
 }
 
-fn sbrdf_mix_push(mx: ptr<function, SbrdfMix>, s: SbrdfShape, energy: f32) {
-    if (energy > 0.0 && sbrdf_finite(energy) && (*mx).n < SBRDF_MAX_COMPONENTS) {
-        let n = (*mx).n;
-        (*mx).kind[n] = s.kind;
-        (*mx).a[n] = s.a;
-        (*mx).m[n] = s.m;
-        (*mx).w[n] = energy;
-        (*mx).n = n + 1u;
+// The energy of lobe li's component: blended record b's own (its weight times its energy), or
+// the shared lobe's (b = SBRDF_SHARED: the weighted sum over the blended records).
+fn sbrdf_smp_energy(base: u32, q: ptr<function, SbrdfQuery>, li: u32, b: u32) -> f32 {
+    if (b != SBRDF_SHARED) {
+        return (*q).w[b] * sbrdf_f(sbrdf_smp_lobe(base, (*q).rec[b], li) + SBRDF_SWL_ENERGY);
     }
+    var energy = 0.0;
+    for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
+        if (i < (*q).n) {
+            energy = energy + (*q).w[i] * sbrdf_f(sbrdf_smp_lobe(base, (*q).rec[i], li) + SBRDF_SWL_ENERGY);
+        }
+    }
+    return energy;
 }
 
-// The query's mixture (sampling.rs Mixture::new and normalise): component 0 the cosine, then
-// per lobe position one shared component, or one per blended record that has the lobe.
-fn sbrdf_smp_mix(base: u32, q: SbrdfQuery) -> SbrdfMix {
-    let bl = q.bl;
-    var mx: SbrdfMix;
-    mx.n = 1u;
-    mx.kind[0] = 0u;
-    mx.wi = bl.wi;
-    var cosine = 0.0;
-    var mmax = 0u;
-    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-        if (b < bl.n) {
-            cosine = cosine + bl.w[b] * sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]));
-            mmax = max(mmax, sbrdf_u(sbrdf_rec(base, bl.rec[b]) + 6u));
-        }
-    }
-    mmax = min(mmax, SBRDF_MAX_LOBES);
+// The mixture's lobe components (sampling.rs Mixture::new), in its order: per lobe position,
+// one component when the blended records share the lobe, else one per blended record that has
+// it, each kept when its energy is > 0 and finite (at most 4 x 8 = 32 of them). One pass over
+// them, starting from the sum t.y:
+//   mode 0: t.y plus their energies, in .x;
+//   mode 1: t.y plus, for each, energy x scale times its density at w and at w mirrored below
+//           the horizon, in .x (w in the records' frame);
+//   mode 2: the first whose cumulative probability (energy x scale, from t.y) exceeds t.x:
+//           (li, b) as bits in .xy, the cumulative probability before it in .z and its own in
+//           .w; when none does, the last one's, with .z the total (as the CPU's choice).
+fn sbrdf_smp_walk(base: u32, q: ptr<function, SbrdfQuery>, mode: u32, scale: f32, t: vec2<f32>,
+    w: vec3<f32>) -> vec4<f32> {
+    let below = vec3<f32>(w.x, w.y, -w.z);
+    var acc = t.y;
+    var last = vec4<f32>(0.0);
     for (var li = 0u; li < SBRDF_MAX_LOBES; li = li + 1u) {
-        if (li >= mmax) {
+        if (li >= (*q).mmax) {
             break;
         }
-        // Shared when every blended record (more than one) has a lobe of one kind at li; one
-        // record alone gives the same component either way.
-        var shared_kind = 0u;
-        if (bl.n > 1u) {
-            shared_kind = 0xffffffffu;
-            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-                if (b < bl.n) {
-                    let e = sbrdf_rec(base, bl.rec[b]);
-                    var kind = 0u;
-                    if (li < sbrdf_u(e + 6u)) {
-                        kind = sbrdf_u(base + sbrdf_u(e + 10u) + 3u * li);
-                    }
-                    if (kind == 0u || (shared_kind != 0xffffffffu && kind != shared_kind)) {
-                        shared_kind = 0u;
-                        break;
-                    }
-                    shared_kind = kind;
-                }
+        let shared_kind = sbrdf_shared_kind(base, q, li);
+        // A shared lobe is one component (b = SBRDF_SHARED); else one per blended record.
+        let nb = select((*q).n, 1u, shared_kind != 0u);
+        for (var i = 0u; i < SBRDF_MAX_BLEND; i = i + 1u) {
+            if (i >= nb) {
+                break;
             }
-        }
-        if (shared_kind != 0u) {
-            var energy = 0.0;
-            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-                if (b < bl.n) {
-                    energy = energy + bl.w[b] * sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]) + 1u + 2u * li);
+            var b = SBRDF_SHARED;
+            var kind = shared_kind;
+            if (shared_kind == 0u) {
+                b = i;
+                let e = sbrdf_rec(base, (*q).rec[i]);
+                if (li >= sbrdf_u(e + SBRDF_REC_LOBES)) {
+                    continue;
                 }
+                kind = sbrdf_u(sbrdf_lobe(base, e, li) + SBRDF_LOBE_KIND);
             }
-            sbrdf_mix_push(&mx, sbrdf_smp_shared_shape(base, bl, q.isotropic, shared_kind, li, bl.wi), energy);
-        } else {
-            for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
-                if (b < bl.n && li < sbrdf_u(sbrdf_rec(base, bl.rec[b]) + 6u)) {
-                    let energy = bl.w[b] * sbrdf_f(sbrdf_smp_weights(base, bl.rec[b]) + 1u + 2u * li);
-                    sbrdf_mix_push(&mx, sbrdf_smp_own_shape(base, bl, b, li, bl.wi), energy);
-                }
+            let energy = sbrdf_smp_energy(base, q, li, b);
+            if (!(energy > 0.0 && sbrdf_finite(energy))) {
+                continue;
             }
+            if (mode == 0u) {
+                acc = acc + energy;
+                continue;
+            }
+            let p = energy * scale;
+            if (mode == 1u) {
+                let s = sbrdf_smp_shape(base, q, li, b, kind);
+                acc = acc + p * (sbrdf_smp_density1(s, (*q).wi, w) + sbrdf_smp_density1(s, (*q).wi, below));
+                continue;
+            }
+            last = vec4<f32>(bitcast<f32>(li), bitcast<f32>(b), acc, p);
+            if (t.x < acc + p) {
+                return last;
+            }
+            acc = acc + p;
         }
     }
-    // Energies to probabilities, the cosine's at least SBRDF_MIN_COSINE_WEIGHT.
+    if (mode == 2u) {
+        return vec4<f32>(last.xy, acc, last.w);
+    }
+    return vec4<f32>(acc, 0.0, 0.0, 0.0);
+}
+
+// The query's mixture (sampling.rs Mixture::normalise): (p0, scale), the cosine's probability
+// (at least SBRDF_MIN_COSINE_WEIGHT) and the factor that turns a lobe component's energy into
+// its probability; (1, 0) when the lobes' energies are not > 0 and finite (the cosine alone).
+fn sbrdf_smp_mixture(base: u32, q: ptr<function, SbrdfQuery>) -> vec2<f32> {
+    var cosine = 0.0;
+    for (var b = 0u; b < SBRDF_MAX_BLEND; b = b + 1u) {
+        if (b < (*q).n) {
+            cosine = cosine + (*q).w[b] * sbrdf_f(sbrdf_smp_weights(base, (*q).rec[b]) + SBRDF_SW_BACKGROUND);
+        }
+    }
     if (!sbrdf_finite(cosine) || cosine < 0.0) {
         cosine = 0.0;
     }
-    var lobes = 0.0;
-    for (var i = 1u; i < SBRDF_MAX_COMPONENTS; i = i + 1u) {
-        if (i < mx.n) {
-            lobes = lobes + mx.w[i];
-        }
-    }
+    let lobes = sbrdf_smp_walk(base, q, 0u, 0.0, vec2<f32>(0.0), vec3<f32>(0.0)).x;
     if (!(lobes > 0.0 && sbrdf_finite(lobes))) {
-        mx.n = 1u;
-        mx.w[0] = 1.0;
-        return mx;
+        return vec2<f32>(1.0, 0.0);
     }
-    let p_cos = max(cosine / (cosine + lobes), SBRDF_MIN_COSINE_WEIGHT);
-    mx.w[0] = p_cos;
-    let scale = (1.0 - p_cos) / lobes;
-    for (var i = 1u; i < SBRDF_MAX_COMPONENTS; i = i + 1u) {
-        if (i < mx.n) {
-            mx.w[i] = mx.w[i] * scale;
-        }
-    }
-    return mx;
+    let p0 = max(cosine / (cosine + lobes), SBRDF_MIN_COSINE_WEIGHT);
+    return vec2<f32>(p0, (1.0 - p0) / lobes);
 }
 
-// Component i's density over the sphere at the unit vector w (records' frame).
-fn sbrdf_smp_density1(mx: SbrdfMix, i: u32, w: vec3<f32>) -> f32 {
-    let kind = mx.kind[i];
-    let a = mx.a[i];
+// The mixture's density over the upper hemisphere at w (records' frame): the cosine's, then each
+// lobe component at w and at its mirror image below the horizon.
+fn sbrdf_smp_density(base: u32, q: ptr<function, SbrdfQuery>, mix: vec2<f32>, w: vec3<f32>) -> f32 {
+    let cosine = mix.x * max(w.z, 0.0) / SBRDF_PI;
+    if (mix.y == 0.0) {
+        return cosine;
+    }
+    return sbrdf_smp_walk(base, q, 1u, mix.y, vec2<f32>(0.0, cosine), w).x;
+}
+
+// A component's density over the sphere at the unit vector w (records' frame; wi the
+// evaluation incidence there, which GGX's visible normals reflect).
+fn sbrdf_smp_density1(sh: SbrdfShape, wi: vec3<f32>, w: vec3<f32>) -> f32 {
+    let kind = sh.kind;
+    let a = sh.a;
     if (kind == 0u) {
         return max(w.z, 0.0) / SBRDF_PI;
     }
@@ -1779,36 +2650,23 @@ fn sbrdf_smp_density1(mx: SbrdfMix, i: u32, w: vec3<f32>) -> f32 {
         // exp(kappa (cos - 1)) with 1 - cos = |w - p|^2 / 2, exact for small angles.
         let d = w - a.xyz;
         let x = min(0.5 * dot(d, d), 2.0);
-        return a.w / (2.0 * SBRDF_PI * mx.m[i]) * exp(-a.w * x);
+        return a.w / (2.0 * SBRDF_PI * sh.m) * exp(-a.w * x);
     }
-    let hs = mx.wi + w;
+    let hs = wi + w;
     let len = length(hs);
     if (!(len > 0.0)) {
         return 0.0;
     }
     let h = hs / len;
-    if (h.z <= 0.0 || dot(mx.wi, h) <= 0.0) {
+    if (h.z <= 0.0 || dot(wi, h) <= 0.0) {
         return 0.0;
     }
     let hu = h.x * a.z + h.y * a.w;
     let hv = h.y * a.z - h.x * a.w;
     let t = hu * hu / (a.x * a.x) + hv * hv / (a.y * a.y) + h.z * h.z;
-    return mx.m[i] / (SBRDF_PI * a.x * a.y * t * t);
+    return sh.m / (SBRDF_PI * a.x * a.y * t * t);
 }
 
-// The mixture's density over the upper hemisphere at w (records' frame): each lobe component at
-// w and at its mirror image below the horizon.
-fn sbrdf_smp_density(mx: SbrdfMix, w: vec3<f32>) -> f32 {
-    let below = vec3<f32>(w.x, w.y, -w.z);
-    var sum = mx.w[0] * max(w.z, 0.0) / SBRDF_PI;
-    for (var i = 1u; i < SBRDF_MAX_COMPONENTS; i = i + 1u) {
-        if (i >= mx.n) {
-            break;
-        }
-        sum = sum + mx.w[i] * (sbrdf_smp_density1(mx, i, w) + sbrdf_smp_density1(mx, i, below));
-    }
-    return sum;
-}
 
 // The unit vector at angle (cos_a, sin_a) from the unit vector p, at azimuth 2 pi u about it
 // (proposal.rs `around`, with the frame of Duff et al. 2017).
@@ -1822,11 +2680,12 @@ fn sbrdf_smp_around(p: vec3<f32>, cos_a: f32, sin_a: f32, u: f32) -> vec3<f32> {
     return (sin_a * sc.y) * t + (sin_a * sc.x) * b + cos_a * p;
 }
 
-// A direction over the sphere from component i (records' frame) and u in [0, 1)^2; .w = 0 when
-// the draw is degenerate (the CPU's None).
-fn sbrdf_smp_draw(mx: SbrdfMix, i: u32, u: vec2<f32>) -> vec4<f32> {
-    let kind = mx.kind[i];
-    let a = mx.a[i];
+
+// A direction over the sphere from a component (records' frame; wi as for
+// sbrdf_smp_density1) and u in [0, 1)^2; .w = 0 when the draw is degenerate (the CPU's None).
+fn sbrdf_smp_draw(sh: SbrdfShape, wi: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
+    let kind = sh.kind;
+    let a = sh.a;
     if (kind == 0u) {
         let r = sqrt(u.x);
         let sc = sbrdf_sincos_turns(u.y);
@@ -1845,7 +2704,7 @@ fn sbrdf_smp_draw(mx: SbrdfMix, i: u32, u: vec2<f32>) -> vec4<f32> {
         // 1 - cos alpha = -ln(1 - (1 - u) m) / kappa. The argument 1 - (1 - u) m is
         // u + (1 - u) exp(-2 kappa), which keeps u's relative precision where it is small.
         let kappa = a.w;
-        let x = (1.0 - u.x) * mx.m[i];
+        let x = (1.0 - u.x) * sh.m;
         var t = 2.0;
         if (x < 0.5) {
             t = -sbrdf_log1p(-x) / kappa;
@@ -1859,7 +2718,6 @@ fn sbrdf_smp_draw(mx: SbrdfMix, i: u32, u: vec2<f32>) -> vec4<f32> {
         return vec4<f32>(sbrdf_smp_around(a.xyz, 1.0 - t, sqrt(t * (2.0 - t)), u.y), 1.0);
     }
     // GGX visible normals (Heitz 2018), in the frame of the axes (u, v, z).
-    let wi = mx.wi;
     let ax = a.x;
     let ay = a.y;
     let axis = a.zw;
@@ -1918,23 +2776,25 @@ fn sbrdf_smp_draw(mx: SbrdfMix, i: u32, u: vec2<f32>) -> vec4<f32> {
     return vec4<f32>(o / ol, 1.0);
 }
 
+
 // The density (1/sr) with which sbrdf_sample draws wo for wi (Decoder::pdf).
 fn sbrdf_pdf(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let w = sbrdf_warp_section(base);
-    if (w != 0u) {
-        return sbrdf_warp_pdf(w, wi, wo);
-    }
     let ui = sbrdf_upper(wi);
     let uo = sbrdf_upper(wo);
     if (ui.w == 0.0 || uo.w == 0.0) {
         return 0.0;
     }
-    if (sbrdf_u(base + 18u) == 0u) {
+    let w = sbrdf_warp_section(base);
+    if (w != 0u) {
+        return sbrdf_warp_pdf(w, ui.xyz, uo.xyz);
+    }
+    if (sbrdf_u(base + SBRDF_HDR_OFF_SAMPLING) == 0u) {
         return uo.z / SBRDF_PI;
     }
-    let q = sbrdf_smp_query(base, ui.xyz);
-    let mx = sbrdf_smp_mix(base, q);
-    return sbrdf_smp_density(mx, sbrdf_smp_in(q, uo.xyz));
+    var q: SbrdfQuery;
+    sbrdf_query(base, ui.xyz, &q);
+    let mix = sbrdf_smp_mixture(base, &q);
+    return sbrdf_smp_density(base, &q, mix, sbrdf_to_records(&q, uo.xyz));
 }
 
 // A direction drawn for wi from u in [0, 1)^2 (Decoder::sample): (wo, pdf), or vec4(0) where
@@ -1944,733 +2804,49 @@ fn sbrdf_sample(base: u32, wi: vec3<f32>, u_in: vec2<f32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     let u = clamp(u_in, vec2<f32>(0.0), vec2<f32>(SBRDF_ONE_BELOW));
-    let w = sbrdf_warp_section(base);
-    if (w != 0u) {
-        return sbrdf_warp_sample(w, wi, u);
-    }
     let ui = sbrdf_upper(wi);
     if (ui.w == 0.0) {
         return vec4<f32>(0.0);
     }
-    if (sbrdf_u(base + 18u) == 0u) {
+    let w = sbrdf_warp_section(base);
+    if (w != 0u) {
+        return sbrdf_warp_sample(w, ui.xyz, u);
+    }
+    if (sbrdf_u(base + SBRDF_HDR_OFF_SAMPLING) == 0u) {
         let r = sqrt(u.x);
         let sc = sbrdf_sincos_turns(u.y);
         let z = sqrt(1.0 - u.x);
         return vec4<f32>(r * sc.y, r * sc.x, z, z / SBRDF_PI);
     }
-    let q = sbrdf_smp_query(base, ui.xyz);
-    let mx = sbrdf_smp_mix(base, q);
-    // The component: the first whose cumulative weight exceeds u.x (the last otherwise).
-    var i = mx.n - 1u;
-    var lo = 0.0;
-    for (var k = 0u; k < SBRDF_MAX_COMPONENTS; k = k + 1u) {
-        if (k >= mx.n) {
-            break;
+    var q: SbrdfQuery;
+    sbrdf_query(base, ui.xyz, &q);
+    let mix = sbrdf_smp_mixture(base, &q);
+    // The component: the first whose cumulative probability exceeds u.x (the cosine's is p0).
+    var d = vec4<f32>(0.0);
+    if (u.x < mix.x) {
+        let u0 = clamp(u.x / mix.x, 0.0, SBRDF_ONE_BELOW);
+        d = sbrdf_smp_draw(SbrdfShape(0u, vec4<f32>(0.0), 0.0), q.wi, vec2<f32>(u0, u.y));
+    } else {
+        let c = sbrdf_smp_walk(base, &q, 2u, mix.y, vec2<f32>(u.x, mix.x), vec3<f32>(0.0));
+        let li = bitcast<u32>(c.x);
+        let b = bitcast<u32>(c.y);
+        var kind = sbrdf_shared_kind(base, &q, li);
+        if (b != SBRDF_SHARED) {
+            kind = sbrdf_u(sbrdf_lobe(base, sbrdf_rec(base, q.rec[b]), li) + SBRDF_LOBE_KIND);
         }
-        if (u.x < lo + mx.w[k]) {
-            i = k;
-            break;
-        }
-        lo = lo + mx.w[k];
+        let u0 = clamp((u.x - c.z) / c.w, 0.0, SBRDF_ONE_BELOW);
+        d = sbrdf_smp_draw(sbrdf_smp_shape(base, &q, li, b, kind), q.wi, vec2<f32>(u0, u.y));
     }
-    let u0 = clamp((u.x - lo) / mx.w[i], 0.0, SBRDF_ONE_BELOW);
-    let d = sbrdf_smp_draw(mx, i, vec2<f32>(u0, u.y));
     if (d.w == 0.0) {
         return vec4<f32>(0.0);
     }
-    let wo = sbrdf_smp_out(q, vec3<f32>(d.x, d.y, abs(d.z)));
+    let wo = sbrdf_from_records(&q, vec3<f32>(d.x, d.y, abs(d.z)));
     // The density at the direction as returned, computed as sbrdf_pdf computes it.
     let back = sbrdf_upper(wo);
     if (back.w == 0.0) {
         return vec4<f32>(0.0);
     }
-    let pdf = sbrdf_smp_density(mx, sbrdf_smp_in(q, back.xyz));
-    if (!(pdf > 0.0 && sbrdf_finite(pdf))) {
-        return vec4<f32>(0.0);
-    }
-    return vec4<f32>(wo, pdf);
-}
-
-// ------------------------------------------------------------------ warped tables
-//
-// The model section of kind 2 (spec/GPU_LAYOUT.md, "Warped tables section"; spec/EVALUATION.md,
-// "Warped tables"): a material measured on the RGL database's warped grids, which answers every
-// query itself and samples itself. Offsets inside the section are relative to its first word.
-// The functions follow `src/decode/warped/query.rs` line for line, in f32: the half vector's
-// inverse VNDF warp blended between the two stored viewing directions around the query's, the
-// packed tables bilinear at the warped point, D/(4 sigma)/cos theta_i; sampling draws a warped
-// point from the tables' spectrum-averaged values, then the VNDF warp forward.
-
-const SBRDF_WARP_KIND: u32 = 2u;
-const SBRDF_WARP_POSITIVE_BITS: u32 = 9u; // a VNDF row's word: positive run below, marginal above
-const SBRDF_WARP_MARG_UNIT: f32 = 1.1920928955078125e-07; // 2^-23
-const SBRDF_WARP_MARKS: u32 = 3u; // conditional integrals kept per values row
-
-// The absolute word of the layout's warped-tables section, 0 when it has none.
-fn sbrdf_warp_section(base: u32) -> u32 {
-    let m = sbrdf_u(base + 19u);
-    if (m == 0u || sbrdf_u(base + m) != SBRDF_WARP_KIND) {
-        return 0u;
-    }
-    return base + m;
-}
-
-struct SbrdfWarpCol {
-    f: f32,
-    s: f32,
-    c: f32,
-    u: f32,
-    v: f32,
-}
-
-fn sbrdf_warp_col(w: u32, a: u32) -> SbrdfWarpCol {
-    let o = w + sbrdf_u(w + 9u) + 5u * a;
-    return SbrdfWarpCol(sbrdf_f(o), sbrdf_f(o + 1u), sbrdf_f(o + 2u), sbrdf_f(o + 3u),
-        sbrdf_f(o + 4u));
-}
-
-// A row of one stored incidence's VNDF (`vndf::Row`): alpha = sin theta cos phi_b, cos theta,
-// its run of positive columns, the incidence's normalisation and the row's normalised total.
-struct SbrdfWarpRow {
-    alpha: f32,
-    ct: f32,
-    positive: u32,
-    scale: f32,
-    total: f32,
-}
-
-fn sbrdf_warp_row(w: u32, i: u32, b: u32) -> SbrdfWarpRow {
-    let inc = w + sbrdf_u(w + 6u) + 6u * i;
-    let g = sbrdf_u(w + 4u);
-    let st = sbrdf_f(inc + 1u);
-    let ct = sbrdf_f(inc + 2u);
-    let scale = sbrdf_f(inc + 3u);
-    let alpha = st * sbrdf_f(w + sbrdf_u(w + 10u) + b);
-    let positive = sbrdf_u(w + sbrdf_u(w + 11u) + i * g + b)
-        & ((1u << SBRDF_WARP_POSITIVE_BITS) - 1u);
-    // The total from the run's last column (`vndf::row_total`).
-    var total = 0.0;
-    if (positive > 0u) {
-        let c = sbrdf_warp_col(w, positive - 1u);
-        total = alpha * c.u + ct * c.v;
-        if (positive < g) {
-            total = total + 0.5 / f32(g - 1u) * (c.f * max(0.0, alpha * c.s + ct * c.c));
-        }
-    }
-    return SbrdfWarpRow(alpha, ct, positive, scale, scale * total);
-}
-
-fn sbrdf_warp_row_density(r: SbrdfWarpRow, a: u32, c: SbrdfWarpCol) -> f32 {
-    if (a < r.positive) {
-        return r.scale * (c.f * max(0.0, r.alpha * c.s + r.ct * c.c));
-    }
-    return 0.0;
-}
-
-fn sbrdf_warp_row_cond(r: SbrdfWarpRow, a: u32, c: SbrdfWarpCol) -> f32 {
-    if (a < r.positive) {
-        return r.scale * (r.alpha * c.u + r.ct * c.v);
-    }
-    return r.total;
-}
-
-// The two stored incidences around theta (radians) and the upper one's weight.
-struct SbrdfWarpSlices {
-    a: u32,
-    b: u32,
-    t: f32,
-}
-
-fn sbrdf_warp_theta(w: u32, i: u32) -> f32 {
-    return sbrdf_f(w + sbrdf_u(w + 6u) + 6u * i);
-}
-
-fn sbrdf_warp_slices(w: u32, theta: f32) -> SbrdfWarpSlices {
-    let n = sbrdf_u(w + 1u);
-    if (n == 1u) {
-        return SbrdfWarpSlices(0u, 0u, 0.0);
-    }
-    let th = clamp(theta, sbrdf_warp_theta(w, 0u), sbrdf_warp_theta(w, n - 1u));
-    var i = 0u;
-    var hi = sbrdf_warp_theta(w, 1u);
-    for (var it = 0u; it < n; it = it + 1u) {
-        if (i + 2u >= n || hi > th) {
-            break;
-        }
-        i = i + 1u;
-        hi = sbrdf_warp_theta(w, i + 1u);
-    }
-    let lo = sbrdf_warp_theta(w, i);
-    return SbrdfWarpSlices(i, i + 1u, clamp((th - lo) / (hi - lo), 0.0, 1.0));
-}
-
-fn sbrdf_warp_mix(sl: SbrdfWarpSlices, x: f32, y: f32) -> f32 {
-    return x + (y - x) * sl.t;
-}
-
-// The cell of x in [0, 1] on n nodes: (index as bits, position within it).
-fn sbrdf_warp_cell(x: f32, n: u32) -> vec2<f32> {
-    let f = clamp(x, 0.0, 1.0) * f32(n - 1u);
-    let i = min(u32(f), n - 2u);
-    return vec2<f32>(bitcast<f32>(i), f - f32(i));
-}
-
-// The four VNDF rows a cell reads: rows b (lo) and b + 1 (hi) of slices a (0) and b (1).
-struct SbrdfWarpCellRows {
-    lo0: SbrdfWarpRow,
-    lo1: SbrdfWarpRow,
-    hi0: SbrdfWarpRow,
-    hi1: SbrdfWarpRow,
-}
-
-fn sbrdf_warp_cell_rows(w: u32, sl: SbrdfWarpSlices, b: u32) -> SbrdfWarpCellRows {
-    return SbrdfWarpCellRows(sbrdf_warp_row(w, sl.a, b), sbrdf_warp_row(w, sl.b, b),
-        sbrdf_warp_row(w, sl.a, b + 1u), sbrdf_warp_row(w, sl.b, b + 1u));
-}
-
-// Blended densities at column a of the lower and upper row.
-fn sbrdf_warp_densities(rows: SbrdfWarpCellRows, sl: SbrdfWarpSlices, a: u32,
-    c: SbrdfWarpCol) -> vec2<f32> {
-    return vec2<f32>(
-        sbrdf_warp_mix(sl, sbrdf_warp_row_density(rows.lo0, a, c),
-            sbrdf_warp_row_density(rows.lo1, a, c)),
-        sbrdf_warp_mix(sl, sbrdf_warp_row_density(rows.hi0, a, c),
-            sbrdf_warp_row_density(rows.hi1, a, c)));
-}
-
-// Blended conditional integrals at column a of the lower and upper row.
-fn sbrdf_warp_conds(rows: SbrdfWarpCellRows, sl: SbrdfWarpSlices, a: u32,
-    c: SbrdfWarpCol) -> vec2<f32> {
-    return vec2<f32>(
-        sbrdf_warp_mix(sl, sbrdf_warp_row_cond(rows.lo0, a, c), sbrdf_warp_row_cond(rows.lo1, a, c)),
-        sbrdf_warp_mix(sl, sbrdf_warp_row_cond(rows.hi0, a, c), sbrdf_warp_row_cond(rows.hi1, a, c)));
-}
-
-fn sbrdf_warp_totals(rows: SbrdfWarpCellRows, sl: SbrdfWarpSlices) -> vec2<f32> {
-    return vec2<f32>(sbrdf_warp_mix(sl, rows.lo0.total, rows.lo1.total),
-        sbrdf_warp_mix(sl, rows.hi0.total, rows.hi1.total));
-}
-
-fn sbrdf_warp_vndf_marg(w: u32, sl: SbrdfWarpSlices, b: u32) -> f32 {
-    let g = sbrdf_u(w + 4u);
-    let o = w + sbrdf_u(w + 11u);
-    let ma = f32(sbrdf_u(o + sl.a * g + b) >> SBRDF_WARP_POSITIVE_BITS) * SBRDF_WARP_MARG_UNIT;
-    let mb = f32(sbrdf_u(o + sl.b * g + b) >> SBRDF_WARP_POSITIVE_BITS) * SBRDF_WARP_MARG_UNIT;
-    return sbrdf_warp_mix(sl, ma, mb);
-}
-
-// The inverse VNDF warp of u (half-vector parameter) and the blended VNDF density there:
-// (sx, sy, density).
-fn sbrdf_warp_invert(w: u32, sl: SbrdfWarpSlices, ux: f32, uy: f32) -> vec3<f32> {
-    let g = sbrdf_u(w + 4u);
-    let n1 = f32(g - 1u);
-    let ca = sbrdf_warp_cell(ux, g);
-    let cb = sbrdf_warp_cell(uy, g);
-    let a = bitcast<u32>(ca.x);
-    let b = bitcast<u32>(cb.x);
-    let tx = ca.y;
-    let ty = cb.y;
-    let rows = sbrdf_warp_cell_rows(w, sl, b);
-    let col0 = sbrdf_warp_col(w, a);
-    let col1 = sbrdf_warp_col(w, a + 1u);
-    let d0 = sbrdf_warp_densities(rows, sl, a, col0);
-    let d1 = sbrdf_warp_densities(rows, sl, a + 1u, col1);
-    let c0 = mix(d0.x, d0.y, ty);
-    let c1 = mix(d1.x, d1.y, ty);
-    let bc = sbrdf_warp_conds(rows, sl, a, col0);
-    let before = mix(bc.x, bc.y, ty);
-    let within = tx * (c0 + 0.5 * (c1 - c0) * tx) / n1;
-    let r = sbrdf_warp_totals(rows, sl);
-    let total = mix(r.x, r.y, ty);
-    var sx = 0.0;
-    if (total > 0.0) {
-        sx = (before + within) / total;
-    }
-    let sy = sbrdf_warp_vndf_marg(w, sl, b) + ty * (r.x + 0.5 * (r.y - r.x) * ty) / n1;
-    return vec3<f32>(clamp(sx, 0.0, 1.0), clamp(sy, 0.0, 1.0), mix(c0, c1, tx));
-}
-
-// tau in [0, 1] with the integral over [0, tau] of mix(v0, v1, t) dt = a.
-fn sbrdf_warp_segment(a_in: f32, v0: f32, v1: f32) -> f32 {
-    let a = max(a_in, 0.0);
-    let disc = max(v0 * v0 + 2.0 * a * (v1 - v0), 0.0);
-    let den = v0 + sqrt(disc);
-    if (den > 0.0) {
-        return clamp(2.0 * a / den, 0.0, 1.0);
-    }
-    return 0.0;
-}
-
-// The forward VNDF warp: a uniform point (sx, sy) -> u. The row by bisection on the blended
-// marginal, the column by bisection on the blended conditional integral.
-fn sbrdf_warp_vndf_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32) -> vec2<f32> {
-    let g = sbrdf_u(w + 4u);
-    let n1 = f32(g - 1u);
-    let sx = clamp(sx_in, 0.0, 1.0);
-    let sy = clamp(sy_in, 0.0, 1.0);
-    var lo = 0u;
-    var hi = g - 1u;
-    for (var it = 0u; it < 32u; it = it + 1u) {
-        if (lo + 1u >= hi) {
-            break;
-        }
-        let mid = (lo + hi) >> 1u;
-        if (sbrdf_warp_vndf_marg(w, sl, mid) < sy) {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let b = min(hi - 1u, g - 2u);
-    let rows = sbrdf_warp_cell_rows(w, sl, b);
-    let r = sbrdf_warp_totals(rows, sl);
-    let ty = sbrdf_warp_segment((sy - sbrdf_warp_vndf_marg(w, sl, b)) * n1, r.x, r.y);
-    let goal = sx * mix(r.x, r.y, ty);
-    lo = 0u;
-    hi = g - 1u;
-    for (var it = 0u; it < 32u; it = it + 1u) {
-        if (lo + 1u >= hi) {
-            break;
-        }
-        let mid = (lo + hi) >> 1u;
-        let cm = sbrdf_warp_conds(rows, sl, mid, sbrdf_warp_col(w, mid));
-        if (mix(cm.x, cm.y, ty) < goal) {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let a = min(hi - 1u, g - 2u);
-    let col0 = sbrdf_warp_col(w, a);
-    let d0 = sbrdf_warp_densities(rows, sl, a, col0);
-    let d1 = sbrdf_warp_densities(rows, sl, a + 1u, sbrdf_warp_col(w, a + 1u));
-    let ca = sbrdf_warp_conds(rows, sl, a, col0);
-    let tx = sbrdf_warp_segment((goal - mix(ca.x, ca.y, ty)) * n1, mix(d0.x, d0.y, ty),
-        mix(d1.x, d1.y, ty));
-    return vec2<f32>((f32(a) + tx) / n1, (f32(b) + ty) / n1);
-}
-
-// Code j of a packed table (bits per code, codes from absolute word o, least bit first).
-fn sbrdf_warp_code(o: u32, bits: u32, j: u32) -> u32 {
-    if (bits == 0u) {
-        return 0u;
-    }
-    let bit = j * bits;
-    let wd = o + (bit >> 5u);
-    let sh = bit & 31u;
-    var v = sbrdf_words[wd] >> sh;
-    if (sh + bits > 32u) {
-        v = v | (sbrdf_words[wd + 1u] << (32u - sh));
-    }
-    return v & ((1u << bits) - 1u);
-}
-
-// Table t = i K + k at node j: lo + code step.
-fn sbrdf_warp_table(w: u32, t: u32, j: u32) -> f32 {
-    let e = w + sbrdf_u(w + 12u) + 4u * t;
-    return sbrdf_f(e + 2u) + f32(sbrdf_warp_code(w + sbrdf_u(e), sbrdf_u(e + 1u), j))
-        * sbrdf_f(e + 3u);
-}
-
-// A table bilinear in the cell whose lower row starts at node n00 (upper at n10).
-fn sbrdf_warp_table_bilerp(w: u32, t: u32, n00: u32, n10: u32, tx: f32, ty: f32) -> f32 {
-    let e = w + sbrdf_u(w + 12u) + 4u * t;
-    let o = w + sbrdf_u(e);
-    let bits = sbrdf_u(e + 1u);
-    let lo = sbrdf_f(e + 2u);
-    let step = sbrdf_f(e + 3u);
-    let v00 = lo + f32(sbrdf_warp_code(o, bits, n00)) * step;
-    let v01 = lo + f32(sbrdf_warp_code(o, bits, n00 + 1u)) * step;
-    let v10 = lo + f32(sbrdf_warp_code(o, bits, n10)) * step;
-    let v11 = lo + f32(sbrdf_warp_code(o, bits, n10 + 1u)) * step;
-    return mix(mix(v00, v01, tx), mix(v10, v11, tx), ty);
-}
-
-// The tables' frame for a query: turned about z so that the tables' own direction d (the
-// viewer's for evaluation, the given one for sampling) has azimuth 0. (cos, sin) of the turn
-// in .xy, d's theta (radians) in .z.
-fn sbrdf_warp_frame(d: vec3<f32>) -> vec3<f32> {
-    let r = sqrt(d.x * d.x + d.y * d.y);
-    var c = 1.0;
-    var s = 0.0;
-    if (r > 0.0) {
-        c = d.x / r;
-        s = d.y / r;
-    }
-    return vec3<f32>(c, s, sbrdf_atan2_deg(r, d.z) * SBRDF_DEG);
-}
-
-fn sbrdf_warp_in(f: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(f.x * v.x + f.y * v.y, -f.y * v.x + f.x * v.y, v.z);
-}
-
-fn sbrdf_warp_out(f: vec3<f32>, v: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(f.x * v.x - f.y * v.y, f.y * v.x + f.x * v.y, v.z);
-}
-
-// The half-vector parameter u of unit m, and sin theta_m: (ux, uy, sin theta_m).
-fn sbrdf_warp_half(m: vec3<f32>) -> vec3<f32> {
-    let sin_m = sqrt(m.x * m.x + m.y * m.y);
-    let ux = sqrt(sbrdf_atan2_deg(sin_m, m.z) / 90.0);
-    var uy = (sbrdf_atan2_deg(m.y, m.x) + 180.0) / 360.0;
-    if (uy >= 1.0) {
-        uy = uy - 1.0;
-    }
-    return vec3<f32>(ux, uy, sin_m);
-}
-
-// f32 lerp of M nodes at j/(M-1), at x in [0, 1] (clamped), from absolute word o.
-fn sbrdf_warp_nodes(o: u32, m: u32, x: f32) -> f32 {
-    let f = clamp(x, 0.0, 1.0) * f32(m - 1u);
-    let i = min(u32(f), m - 2u);
-    let a = sbrdf_f(o + i);
-    return a + (sbrdf_f(o + i + 1u) - a) * (f - f32(i));
-}
-
-// What a query reads of the tables: the slices, the tables' cell and the factor
-// D(u_x) / (4 sigma) / cos theta_i (f = 0: rho is 0).
-struct SbrdfWarpQuery {
-    sl: SbrdfWarpSlices,
-    n00: u32,
-    n10: u32,
-    tx: f32,
-    ty: f32,
-    f: f32,
-}
-
-fn sbrdf_warp_query(w: u32, wi: vec3<f32>, wo: vec3<f32>) -> SbrdfWarpQuery {
-    var q: SbrdfWarpQuery;
-    q.f = 0.0;
-    let ui = sbrdf_upper(wi);
-    let uo = sbrdf_upper(wo);
-    if (ui.w == 0.0 || uo.w == 0.0) {
-        return q;
-    }
-    // The tables follow the viewer's direction (the query's wo): the roles are exchanged.
-    let fr = sbrdf_warp_frame(uo.xyz);
-    let a = vec3<f32>(sqrt(uo.x * uo.x + uo.y * uo.y), 0.0, uo.z);
-    let b = sbrdf_warp_in(fr, ui.xyz);
-    if (b.z <= 0.0) {
-        return q;
-    }
-    let h = a + b;
-    let len = length(h);
-    if (!(len > 0.0)) {
-        return q;
-    }
-    let u = sbrdf_warp_half(h / len);
-    q.sl = sbrdf_warp_slices(w, fr.z);
-    let s = sbrdf_warp_invert(w, q.sl, u.x, u.y);
-    let m = sbrdf_u(w + 5u);
-    let sigma = sbrdf_warp_nodes(w + sbrdf_u(w + 8u), m, sqrt(max(fr.z, 0.0) / (0.5 * SBRDF_PI)));
-    let d = sbrdf_warp_nodes(w + sbrdf_u(w + 7u), m, u.x);
-    q.f = d / (4.0 * sigma) / b.z;
-    let r = sbrdf_u(w + 3u);
-    let cx = sbrdf_warp_cell(s.x, r);
-    let cy = sbrdf_warp_cell(s.y, r);
-    q.n00 = bitcast<u32>(cy.x) * r + bitcast<u32>(cx.x);
-    q.n10 = q.n00 + r;
-    q.tx = cx.y;
-    q.ty = cy.y;
-    return q;
-}
-
-// Term k's blended table value times the query's factor.
-fn sbrdf_warp_term(w: u32, q: SbrdfWarpQuery, k: u32) -> f32 {
-    let nk = sbrdf_u(w + 2u);
-    let va = sbrdf_warp_table_bilerp(w, q.sl.a * nk + k, q.n00, q.n10, q.tx, q.ty);
-    let vb = sbrdf_warp_table_bilerp(w, q.sl.b * nk + k, q.n00, q.n10, q.tx, q.ty);
-    return (va + (vb - va) * q.sl.t) * q.f;
-}
-
-// B_k(lambda) ("Spectral basis") at a finite wavelength.
-fn sbrdf_warp_basis(base: u32, k: u32, l: f32) -> f32 {
-    let basis = sbrdf_u(base + 4u);
-    if (basis == 3u) {
-        let nw = sbrdf_u(base + 7u);
-        let ow = base + sbrdf_u(base + 13u);
-        let tab = base + sbrdf_u(base + 14u) + k * nw;
-        var j = 0u;
-        var f = 0.0;
-        if (nw > 1u && l > sbrdf_f(ow)) {
-            let bw = sbrdf_bracket(ow, nw, l);
-            j = bitcast<u32>(bw.x);
-            f = bw.y;
-        }
-        var bk = sbrdf_f(tab + j);
-        if (f != 0.0) {
-            bk = bk + f * (sbrdf_f(tab + j + 1u) - bk);
-        }
-        return bk;
-    }
-    let lo = sbrdf_f(base + 11u);
-    let hi = sbrdf_f(base + 12u);
-    var u = 0.0;
-    if (hi > lo) {
-        u = clamp((clamp(l, lo, hi) - lo) / (hi - lo), 0.0, 1.0);
-    }
-    if (basis == 1u) {
-        if (k == 0u) {
-            return 0.5;
-        }
-        let cs = sbrdf_sincos_turns(sbrdf_frac_mul(f32((k + 1u) / 2u), u));
-        return select(cs.x, cs.y, (k & 1u) == 1u);
-    }
-    return sbrdf_sincos_turns(sbrdf_frac_mul(f32(k), 0.5 * u)).y;
-}
-
-// rho at four wavelengths (each clamped at 0; a non-finite one 0).
-fn sbrdf_warp_eval4(base: u32, w: u32, wi: vec3<f32>, wo: vec3<f32>, l: vec4<f32>) -> vec4<f32> {
-    let q = sbrdf_warp_query(w, wi, wo);
-    if (q.f == 0.0) {
-        return vec4<f32>(0.0);
-    }
-    var ok = vec4<bool>(false);
-    var lf = vec4<f32>(0.0);
-    for (var i = 0u; i < 4u; i = i + 1u) {
-        ok[i] = sbrdf_finite(l[i]);
-        lf[i] = select(0.0, l[i], ok[i]);
-    }
-    var v = vec4<f32>(0.0);
-    let nk = sbrdf_u(w + 2u);
-    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-        if (k >= nk) {
-            break;
-        }
-        let b = vec4<f32>(sbrdf_warp_basis(base, k, lf.x), sbrdf_warp_basis(base, k, lf.y),
-            sbrdf_warp_basis(base, k, lf.z), sbrdf_warp_basis(base, k, lf.w));
-        v = v + sbrdf_warp_term(w, q, k) * b;
-    }
-    return select(vec4<f32>(0.0), max(v, vec4<f32>(0.0)), ok);
-}
-
-// Terms kept per query by sbrdf_warp_eval_rgb (files with more read the rest again per
-// wavelength; the RGL measurements have 2 or 3).
-const SBRDF_WARP_RGB_TERMS: u32 = 8u;
-
-fn sbrdf_warp_eval_rgb(base: u32, w: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
-    let q = sbrdf_warp_query(w, wi, wo);
-    if (q.f == 0.0) {
-        return vec3<f32>(0.0);
-    }
-    let nk = sbrdf_u(w + 2u);
-    var v: array<f32, 8>;
-    for (var k = 0u; k < SBRDF_WARP_RGB_TERMS; k = k + 1u) {
-        if (k >= nk) {
-            break;
-        }
-        v[k] = sbrdf_warp_term(w, q, k);
-    }
-    var rgb = vec3<f32>(0.0);
-    for (var i = 0u; i < 81u; i = i + 1u) {
-        let lambda = 380.0 + 5.0 * f32(i);
-        var s = 0.0;
-        for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-            if (k >= nk) {
-                break;
-            }
-            var t = 0.0;
-            if (k < SBRDF_WARP_RGB_TERMS) {
-                t = v[k];
-            } else {
-                t = sbrdf_warp_term(w, q, k);
-            }
-            s = s + t * sbrdf_warp_basis(base, k, lambda);
-        }
-        rgb = rgb + max(s, 0.0) * SBRDF_RGB_WEIGHTS[i];
-    }
-    return rgb;
-}
-
-// The values' density of stored incidence i at node j (normalised): the spectrum-averaged table
-// values clamped at 0, plus the incidence's floor.
-fn sbrdf_warp_values_at(w: u32, i: u32, j: u32) -> f32 {
-    let nk = sbrdf_u(w + 2u);
-    let means = w + sbrdf_u(w + 14u);
-    var v = 0.0;
-    for (var k = 0u; k < SBRDF_MAX_TERMS; k = k + 1u) {
-        if (k >= nk) {
-            break;
-        }
-        v = v + sbrdf_warp_table(w, i * nk + k, j) * sbrdf_f(means + k);
-    }
-    let inc = w + sbrdf_u(w + 6u) + 6u * i;
-    return sbrdf_f(inc + 4u) * (max(v, 0.0) + sbrdf_f(inc + 5u));
-}
-
-fn sbrdf_warp_values_density(w: u32, sl: SbrdfWarpSlices, x: f32, y: f32) -> f32 {
-    let r = sbrdf_u(w + 3u);
-    let cx = sbrdf_warp_cell(x, r);
-    let cy = sbrdf_warp_cell(y, r);
-    let n00 = bitcast<u32>(cy.x) * r + bitcast<u32>(cx.x);
-    let n10 = n00 + r;
-    let v00 = sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, n00), sbrdf_warp_values_at(w, sl.b, n00));
-    let v01 = sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, n00 + 1u),
-        sbrdf_warp_values_at(w, sl.b, n00 + 1u));
-    let v10 = sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, n10), sbrdf_warp_values_at(w, sl.b, n10));
-    let v11 = sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, n10 + 1u),
-        sbrdf_warp_values_at(w, sl.b, n10 + 1u));
-    return mix(mix(v00, v01, cx.y), mix(v10, v11, cx.y), cy.y);
-}
-
-// Word j of values row (i, b): 0 total, 1 marginal, 2.. the marks' conditional integrals.
-fn sbrdf_warp_values_row(w: u32, i: u32, b: u32, j: u32) -> f32 {
-    let r = sbrdf_u(w + 3u);
-    return sbrdf_f(w + sbrdf_u(w + 13u) + (2u + SBRDF_WARP_MARKS) * (i * r + b) + j);
-}
-
-// The blended values' density at column a of rows b and b + 1, blended by ty.
-fn sbrdf_warp_values_col(w: u32, sl: SbrdfWarpSlices, b: u32, a: u32, ty: f32) -> f32 {
-    let r = sbrdf_u(w + 3u);
-    let lo = b * r + a;
-    let hi = lo + r;
-    return mix(sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, lo), sbrdf_warp_values_at(w, sl.b, lo)),
-        sbrdf_warp_mix(sl, sbrdf_warp_values_at(w, sl.a, hi), sbrdf_warp_values_at(w, sl.b, hi)), ty);
-}
-
-// The forward warp of the values' density: a uniform point -> a warped point (the row by its
-// stored marginal, the column from the last kept mark below the target, walking the row).
-fn sbrdf_warp_values_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32) -> vec2<f32> {
-    let r = sbrdf_u(w + 3u);
-    let n1 = f32(r - 1u);
-    let sx = clamp(sx_in, 0.0, 1.0);
-    let sy = clamp(sy_in, 0.0, 1.0);
-    var lo = 0u;
-    var hi = r - 1u;
-    for (var it = 0u; it < 32u; it = it + 1u) {
-        if (lo + 1u >= hi) {
-            break;
-        }
-        let mid = (lo + hi) >> 1u;
-        let m = sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, mid, 1u),
-            sbrdf_warp_values_row(w, sl.b, mid, 1u));
-        if (m < sy) {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let b = min(hi - 1u, r - 2u);
-    let mb = sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b, 1u),
-        sbrdf_warp_values_row(w, sl.b, b, 1u));
-    let r0 = sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b, 0u),
-        sbrdf_warp_values_row(w, sl.b, b, 0u));
-    let r1 = sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b + 1u, 0u),
-        sbrdf_warp_values_row(w, sl.b, b + 1u, 0u));
-    let ty = sbrdf_warp_segment((sy - mb) * n1, r0, r1);
-    let goal = sx * mix(r0, r1, ty);
-    var a = 0u;
-    var before = 0.0;
-    for (var j = 0u; j < SBRDF_WARP_MARKS; j = j + 1u) {
-        let m = mix(sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b, 2u + j),
-            sbrdf_warp_values_row(w, sl.b, b, 2u + j)),
-            sbrdf_warp_mix(sl, sbrdf_warp_values_row(w, sl.a, b + 1u, 2u + j),
-            sbrdf_warp_values_row(w, sl.b, b + 1u, 2u + j)), ty);
-        if (m >= goal) {
-            break;
-        }
-        a = (j + 1u) * (r - 1u) / (SBRDF_WARP_MARKS + 1u);
-        before = m;
-    }
-    let half = 0.5 / n1;
-    var c0 = sbrdf_warp_values_col(w, sl, b, a, ty);
-    var c1 = sbrdf_warp_values_col(w, sl, b, a + 1u, ty);
-    for (var it = 0u; it < r; it = it + 1u) {
-        if (a + 2u >= r) {
-            break;
-        }
-        let next = before + half * (c0 + c1);
-        if (next >= goal) {
-            break;
-        }
-        a = a + 1u;
-        before = next;
-        c0 = c1;
-        c1 = sbrdf_warp_values_col(w, sl, b, a + 1u, ty);
-    }
-    let tx = sbrdf_warp_segment((goal - before) * n1, c0, c1);
-    return vec2<f32>((f32(a) + tx) / n1, (f32(b) + ty) / n1);
-}
-
-// The density over wo (the tables' frame) of reflecting wi about a half vector drawn from the
-// blended warps (0 where m is below the horizon or faces away from wo).
-fn sbrdf_warp_reflected(w: u32, sl: SbrdfWarpSlices, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let h = wi + wo;
-    let len = length(h);
-    if (!(len > 0.0) || h.z < 0.0) {
-        return 0.0;
-    }
-    let m = h / len;
-    let u = sbrdf_warp_half(m);
-    let jac = u.z * SBRDF_PI * u.x * 2.0 * SBRDF_PI;
-    let d = dot(wo, m);
-    if (!(jac > 0.0 && d > 0.0)) {
-        return 0.0;
-    }
-    let s = sbrdf_warp_invert(w, sl, u.x, u.y);
-    return sbrdf_warp_values_density(w, sl, s.x, s.y) * s.z / jac / (4.0 * d);
-}
-
-// The density with which sbrdf_warp_sample draws unit wo for unit wi (both above the horizon):
-// the cosine share plus the tables' share at wo and at its mirror image.
-fn sbrdf_warp_pdf_unit(w: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let fr = sbrdf_warp_frame(wi);
-    let a = vec3<f32>(sqrt(wi.x * wi.x + wi.y * wi.y), 0.0, wi.z);
-    let b = sbrdf_warp_in(fr, wo);
-    if (b.z <= 0.0) {
-        return 0.0;
-    }
-    let sl = sbrdf_warp_slices(w, fr.z);
-    let tables = sbrdf_warp_reflected(w, sl, a, b)
-        + sbrdf_warp_reflected(w, sl, a, vec3<f32>(b.x, b.y, -b.z));
-    return SBRDF_MIN_COSINE_WEIGHT * b.z / SBRDF_PI + (1.0 - SBRDF_MIN_COSINE_WEIGHT) * tables;
-}
-
-fn sbrdf_warp_pdf(w: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
-    let ui = sbrdf_upper(wi);
-    let uo = sbrdf_upper(wo);
-    if (ui.w == 0.0 || uo.w == 0.0) {
-        return 0.0;
-    }
-    return sbrdf_warp_pdf_unit(w, ui.xyz, uo.xyz);
-}
-
-// A direction drawn for wi from u (already clamped to [0, 1)^2): (wo, pdf), vec4(0) for none.
-fn sbrdf_warp_sample(w: u32, wi: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
-    let ui = sbrdf_upper(wi);
-    if (ui.w == 0.0) {
-        return vec4<f32>(0.0);
-    }
-    let fr = sbrdf_warp_frame(ui.xyz);
-    let a = vec3<f32>(sqrt(ui.x * ui.x + ui.y * ui.y), 0.0, ui.z);
-    var local: vec3<f32>;
-    if (u.x < SBRDF_MIN_COSINE_WEIGHT) {
-        let u0 = u.x / SBRDF_MIN_COSINE_WEIGHT;
-        let rad = sqrt(u0);
-        let cs = sbrdf_sincos_turns(u.y);
-        local = vec3<f32>(rad * cs.y, rad * cs.x, sqrt(max(1.0 - u0, 0.0)));
-    } else {
-        let u0 = min((u.x - SBRDF_MIN_COSINE_WEIGHT) / (1.0 - SBRDF_MIN_COSINE_WEIGHT), 1.0);
-        let sl = sbrdf_warp_slices(w, fr.z);
-        let s = sbrdf_warp_values_sample(w, sl, u0, u.y);
-        let uv = sbrdf_warp_vndf_sample(w, sl, s.x, s.y);
-        // The half vector of u: theta_m = ux^2 pi/2, phi_m = 2 pi uy - pi (uy - 1/2 turns).
-        let st = sbrdf_sincos_deg(uv.x * uv.x * 90.0);
-        let sp = sbrdf_sincos_turns(uv.y - 0.5);
-        let m = vec3<f32>(st.x * sp.y, st.x * sp.x, st.y);
-        let d = 2.0 * (a.x * m.x + a.z * m.z);
-        local = vec3<f32>(d * m.x - a.x, d * m.y, d * m.z - a.z);
-    }
-    local.z = abs(local.z);
-    if (!(local.z > 0.0)) {
-        return vec4<f32>(0.0);
-    }
-    let wo = sbrdf_warp_out(fr, local);
-    let back = sbrdf_upper(wo);
-    if (back.w == 0.0) {
-        return vec4<f32>(0.0);
-    }
-    let pdf = sbrdf_warp_pdf_unit(w, ui.xyz, back.xyz);
+    let pdf = sbrdf_smp_density(base, &q, mix, sbrdf_to_records(&q, back.xyz));
     if (!(pdf > 0.0 && sbrdf_finite(pdf))) {
         return vec4<f32>(0.0);
     }

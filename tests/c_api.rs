@@ -25,6 +25,7 @@ fn header_declares_exactly_the_exported_api() {
         "int sbrdf_pdf(const sbrdf_t *b, const float wi[3], const float wo[3], float *pdf);",
         "int sbrdf_eval_batch(const sbrdf_t *b, size_t n, const float *wi, size_t wi_stride, const float *wo, size_t wo_stride, const float *wavelengths_nm, size_t count, float *out);",
         "int sbrdf_gpu_layout(const sbrdf_t *b, uint32_t *words, size_t capacity, size_t *word_count);",
+        "int sbrdf_gpu_pack(const sbrdf_t *const *materials, size_t count, uint32_t *words, size_t capacity, size_t *word_count, uint32_t *bases);",
         "void sbrdf_close(sbrdf_t *b);",
         "const char *sbrdf_error_message(int code);",
     ] {
@@ -57,6 +58,7 @@ fn header_declares_exactly_the_exported_api() {
         "sbrdf_pdf",
         "sbrdf_eval_batch",
         "sbrdf_gpu_layout",
+        "sbrdf_gpu_pack",
         "sbrdf_close",
         "sbrdf_error_message",
     ] {
@@ -437,5 +439,118 @@ fn c_gpu_layout_is_the_decoders_and_checks_its_buffer() {
         );
         assert_eq!(words, want);
         sbrdf_close(warp);
+    }
+}
+
+#[test]
+fn c_gpu_pack_is_the_crates_and_checks_its_arguments() {
+    unsafe {
+        let open = |name: &str| {
+            let path = CString::new(golden(name).to_str().unwrap()).unwrap();
+            let mut b = std::ptr::null_mut();
+            assert_eq!(sbrdf_open_file(path.as_ptr(), &mut b), SBRDF_OK);
+            b as *const sbrdf_t
+        };
+        let names = ["ggx_3inc_default.sbrdf", "krylon_shared_v11.sbrdf"];
+        let handles = [open(names[0]), open(names[1])];
+        let decoders: Vec<sbrdf::Decoder> = names
+            .iter()
+            .map(|n| sbrdf::Decoder::open(golden(n)).unwrap())
+            .collect();
+        let want = sbrdf::gpu::pack(&decoders.iter().collect::<Vec<_>>()).unwrap();
+        // The size query, a buffer one word short (nothing written), then one that fits.
+        let mut count = 0usize;
+        let p = handles.as_ptr();
+        assert_eq!(
+            sbrdf_gpu_pack(
+                p,
+                2,
+                std::ptr::null_mut(),
+                0,
+                &mut count,
+                std::ptr::null_mut()
+            ),
+            SBRDF_OK
+        );
+        assert_eq!(count, want.words.len());
+        let mut words = vec![0xdead_beefu32; count];
+        let mut bases = [7u32; 2];
+        let mut again = 0usize;
+        let w = words.as_mut_ptr();
+        assert_eq!(
+            sbrdf_gpu_pack(p, 2, w, count - 1, &mut again, bases.as_mut_ptr()),
+            SBRDF_ERR_ARGUMENT
+        );
+        assert!(words.iter().all(|&w| w == 0xdead_beef) && bases == [7, 7]);
+        assert_eq!(
+            sbrdf_gpu_pack(p, 2, w, count, &mut again, bases.as_mut_ptr()),
+            SBRDF_OK
+        );
+        assert_eq!((words, bases.to_vec()), (want.words, want.bases));
+        // NULL pointers, no material.
+        let mut words = vec![0u32; count];
+        let w = words.as_mut_ptr();
+        assert_eq!(
+            sbrdf_gpu_pack(p, 2, w, count, &mut again, std::ptr::null_mut()),
+            SBRDF_ERR_NULL
+        );
+        assert_eq!(
+            sbrdf_gpu_pack(p, 2, w, count, std::ptr::null_mut(), bases.as_mut_ptr()),
+            SBRDF_ERR_NULL
+        );
+        assert_eq!(
+            sbrdf_gpu_pack(
+                std::ptr::null(),
+                2,
+                w,
+                count,
+                &mut again,
+                bases.as_mut_ptr()
+            ),
+            SBRDF_ERR_NULL
+        );
+        let with_null = [handles[0], std::ptr::null()];
+        assert_eq!(
+            sbrdf_gpu_pack(
+                with_null.as_ptr(),
+                2,
+                w,
+                count,
+                &mut again,
+                bases.as_mut_ptr()
+            ),
+            SBRDF_ERR_NULL
+        );
+        assert_eq!(
+            sbrdf_gpu_pack(p, 0, w, count, &mut again, bases.as_mut_ptr()),
+            SBRDF_ERR_ARGUMENT
+        );
+        // Warped tables are covered (layout version 4): the size query counts their words.
+        let warp = open("rgl_paper_warp_v14.sbrdf");
+        let with_warp = [handles[0], warp];
+        let mut n = 7usize;
+        assert_eq!(
+            sbrdf_gpu_pack(
+                with_warp.as_ptr(),
+                2,
+                std::ptr::null_mut(),
+                0,
+                &mut n,
+                std::ptr::null_mut()
+            ),
+            SBRDF_OK
+        );
+        let mut one = 0usize;
+        assert_eq!(
+            sbrdf_gpu_layout(warp, std::ptr::null_mut(), 0, &mut one),
+            SBRDF_OK
+        );
+        assert!(
+            one > 0 && n > one,
+            "{n} words for both, {one} for the warped one"
+        );
+        for h in [handles[0], handles[1], warp] {
+            sbrdf_close(h as *mut sbrdf_t);
+        }
     }
 }

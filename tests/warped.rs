@@ -107,6 +107,16 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
         let bytes = std::fs::read(dir.path().join(&out)).unwrap();
         eprintln!("{name}: {} bytes; {e}", bytes.len());
         assert!(bytes.len() <= 6500, "{name}: {} bytes", bytes.len());
+        // What a renderer holds of it (issue 42) and uploads to a GPU (issue 38): both bounded
+        // at 64 KiB for these 32 × 32 measurements, as for the golden files.
+        let dec = Decoder::from_bytes(&bytes).unwrap();
+        let layout = 4 * dec.gpu_layout().unwrap().len();
+        eprintln!(
+            "{name}: resident {} B, GPU layout {layout} B",
+            dec.resident_bytes()
+        );
+        assert!(dec.resident_bytes() <= 64 << 10, "{name}: resident");
+        assert!(layout <= 64 << 10, "{name}: GPU layout {layout} B");
         assert!(
             bytes.len() as f64 <= SLACK * stated,
             "{name}: {} bytes, the guide states {stated}",

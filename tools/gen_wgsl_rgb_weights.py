@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""Writes SBRDF_RGB_WEIGHTS into shaders/sbrdf.wgsl (between its BEGIN/END GENERATED markers)
-from the tables of src/decode/cie.rs: per CIE wavelength, M E (xbar, ybar, zbar) / sum E ybar
-in f64, in the order of operations of src/decode/color.rs, rounded to f32 and printed with 9
-significant digits (enough to give the same f32 back). The Rust test
+"""Writes the colour weights into shaders/sbrdf.wgsl (between its BEGIN/END GENERATED RGB WEIGHTS
+markers) from the tables of src/decode/cie.rs: per CIE wavelength, M E (xbar, ybar, zbar) / sum E
+ybar in f64, in the order of operations of src/decode/color.rs, rounded to f32 and printed with 9
+significant digits (enough to give the same f32 back). They are the columns of
+sbrdf_rgb_weights4(g), four wavelengths a group, a `switch` of constants (a `const` array indexed
+at run time would be copied into each invocation's private memory by a SPIR-V writer). The Rust test
 gpu::tests::rgb_weights_match_cie_tables checks the result, so a change to cie.rs or color.rs
 without rerunning this script fails the tests."""
 import re
@@ -34,8 +36,21 @@ def main():
         rgb = (3.2406 * x - 1.5372 * y - 0.4986 * z,
                -0.9689 * x + 1.8758 * y + 0.0415 * z,
                0.0557 * x - 0.2040 * y + 1.0570 * z)
-        rows.append("    vec3<f32>(%s)," % ", ".join("%.9e" % f32(c) for c in rgb))
-    block = ("const SBRDF_RGB_WEIGHTS = array<vec3<f32>, %d>(\n%s\n);\n" % (len(e), "\n".join(rows)))
+        rows.append("vec3<f32>(%s)" % ", ".join("%.9e" % f32(c) for c in rgb))
+    groups = (len(rows) + 3) // 4
+    cases = []
+    for g in range(groups):
+        cols = rows[4 * g:4 * g + 4]
+        cols += ["vec3<f32>(0.0)"] * (4 - len(cols))
+        nm = 380 + 20 * g
+        span = "%d to %d nm" % (nm, nm + 15) if len(rows[4 * g:4 * g + 4]) == 4 else "%d nm" % nm
+        body = ",\n".join("                %s" % c for c in cols)
+        cases.append("        case %du: { // %s\n            return mat4x3<f32>(\n%s);\n        }"
+                     % (g, span, body))
+    block = ("fn sbrdf_rgb_weights4(g: u32) -> mat4x3<f32> {\n    switch (g) {\n%s\n"
+             "        default: {\n            return mat4x3<f32>();\n        }\n    }\n}\n"
+             % "\n".join(cases))
+    assert len(rows) == 81 and groups == 21
     path = ROOT / "shaders/sbrdf.wgsl"
     text = path.read_text()
     begin, end = "// BEGIN GENERATED RGB WEIGHTS\n", "// END GENERATED RGB WEIGHTS\n"

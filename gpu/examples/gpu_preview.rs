@@ -93,10 +93,11 @@ fn run() -> Result<bool, String> {
     let a = parse_args()?;
     let name = a.input.display();
     let dec = Decoder::open(&a.input).map_err(|e| format!("{name}: {e}"))?;
-    let layout = dec.gpu_layout().map_err(|e| format!("{name}: {e}"))?;
+    let packed = sbrdf::gpu::pack(&[&dec]).map_err(|e| format!("{name}: {e}"))?;
     let samples = preview_samples(&a.options).map_err(|e| e.to_string())?;
 
-    // The device: one query per lit sub-sample, base 0 (the buffer holds this material alone).
+    // The device: one query per lit sub-sample, at the material's base (the buffer holds it
+    // alone).
     let lit: Vec<(usize, Query)> = samples
         .iter()
         .enumerate()
@@ -107,7 +108,7 @@ fn run() -> Result<bool, String> {
                     wi: light,
                     lambda_nm: 0.0,
                     wo: view,
-                    base: 0,
+                    base: packed.bases[0],
                 },
             )),
             _ => None,
@@ -119,7 +120,7 @@ fn run() -> Result<bool, String> {
     let mut device_rgb = vec![[0.0f64; 3]; samples.len()];
     for chunk in lit.chunks(CHUNK) {
         let queries: Vec<Query> = chunk.iter().map(|(_, q)| *q).collect();
-        let out = gpu.run(&module, "eval_rgb", &layout, &queries, 3);
+        let out = gpu.run(&module, "eval_rgb", &packed.words, &queries, 3);
         for ((i, _), c) in chunk.iter().zip(out.chunks_exact(3)) {
             device_rgb[*i] = [c[0] as f64, c[1] as f64, c[2] as f64];
         }

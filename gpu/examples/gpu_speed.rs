@@ -255,7 +255,7 @@ impl<'a> Timed<'a> {
             pass.dispatch_workgroups(self.groups, 1, 1);
         }
         self.gpu.queue.submit([enc.finish()]);
-        d.poll(wgpu::PollType::Wait).expect("poll");
+        common::wait(d);
         start.elapsed()
     }
 
@@ -273,7 +273,9 @@ fn run() -> Result<(), String> {
     let a = parse_args()?;
     let name = a.input.display().to_string();
     let dec = Decoder::open(&a.input).map_err(|e| format!("{name}: {e}"))?;
-    let layout = dec.gpu_layout().map_err(|e| format!("{name}: {e}"))?;
+    let packed = sbrdf::gpu::pack(&[&dec]).map_err(|e| format!("{name}: {e}"))?;
+    let base = packed.bases[0];
+    let layout = &packed.words[base as usize..];
     if layout[3] != 0 {
         return Err(format!(
             "{name}: not isotropic; the dense table baseline has no φi axis"
@@ -285,9 +287,9 @@ fn run() -> Result<(), String> {
     let start = Instant::now();
     let table = dense_table(&dec, a.grid, &waves);
     let table_time = start.elapsed();
-    // One buffer: the layout at 0, the table after it.
-    let table_base = layout.len() as u32;
-    let mut words = layout.clone();
+    // One buffer: the packed layout, the table after it.
+    let table_base = packed.words.len() as u32;
+    let mut words = packed.words.clone();
     words.extend_from_slice(&table);
 
     // The same random pairs for every kernel, four wavelengths each (the four-wavelength
@@ -309,7 +311,7 @@ fn run() -> Result<(), String> {
                 wi,
                 lambda_nm,
                 wo,
-                base: 0,
+                base,
             });
         }
     }

@@ -3,7 +3,7 @@
 //! Every file of `samples/golden/MANIFEST` and `samples/ggx_slices.sbrdf` is laid out with
 //! `Decoder::gpu_layout()` (a factor model, FACT, as the model section of kind 1; warped tables,
 //! WARP, as kind 2, compared with the CPU decoder's compact form, which holds the same words);
-//! all layouts share one buffer, each at its own non-zero base word offset. For each file, `PAIRS` seeded-random direction pairs in the
+//! all layouts share one buffer (`sbrdf::gpu::pack`), each at its own base word offset. For each file, `PAIRS` seeded-random direction pairs in the
 //! upper hemisphere (a share of them grazing) are evaluated at `WAVELENGTHS` wavelengths inside
 //! the file's range, on the device with `sbrdf_eval` and on the CPU with `Decoder::eval`, at the
 //! same f32 directions and wavelengths.
@@ -18,6 +18,7 @@
 mod common;
 use common::*;
 use sbrdf::decode::color::Illuminant;
+use sbrdf::gpu::{pack, pack_layouts, Packed};
 use sbrdf::Decoder;
 
 const PAIRS: usize = 100_000;
@@ -37,6 +38,18 @@ const ABS_OF_MAX: f64 = 1e-7;
 /// The way out is a double-f32 SH evaluation (open in issue 25). When a file here meets the strict
 /// tolerance the test fails, asking for it to be removed from this list.
 const KNOWN_F32_LIMIT: &[(&str, f64)] = &[("phong_3inc_direct_f16.sbrdf", 2e-6)];
+
+/// The tolerance for warped tables (model section kind 2), relative and as a fraction of M, in
+/// evaluation, pdf and sampling. The tables are read at the point the inverse VNDF warp gives
+/// for the half vector: a chain of f32 arithmetic (the half vector's angles, the warp's cell,
+/// its blended densities and integrals, a division by the row's total) whose rounding moves
+/// the point by ~1e-6 of a cell, and a measured specular lobe changes by a large factor across
+/// one cell of a 32- or 64-node table, so the value moves by a few 1e-4 relative where the CPU
+/// computes the same point in f64 (measured on lavapipe: worst relative ~5e-4 on significant
+/// values). This is the precision of f32 through the warp, not an approximation of the
+/// shader's: the numbers read are the CPU's compact form bit for bit.
+const WARPED_REL: f64 = 1e-3;
+const WARPED_ABS_OF_MAX: f64 = 1e-5;
 
 struct Material {
     name: String,
@@ -67,22 +80,24 @@ fn materials() -> (Vec<Material>, Vec<String>) {
     }
     eprintln!("with warped tables (model section kind 2): {warped:?}");
     assert!(covered.len() >= 13, "only {} files laid out", covered.len());
-    assert!(warped.len() >= 3, "only {} files with warped tables", warped.len());
+    assert!(
+        warped.len() >= 3,
+        "only {} files with warped tables",
+        warped.len()
+    );
     (covered, warped)
 }
 
-/// What both device tests start from: the materials (and the names of those with warped
-/// tables), their layouts in one buffer, the shader with its host prelude, and the device.
-fn on_device() -> (Vec<Material>, Vec<String>, Buffer, String, Gpu) {
+/// What the device tests start from: the materials (and the names of those with warped tables),
+/// put in one buffer by `sbrdf::gpu::pack` (each at its base), the shader with its host prelude,
+/// and the device.
+fn on_device() -> (Vec<Material>, Vec<String>, Packed, String, Gpu) {
     let (mats, warped) = materials();
-    let buf = concatenate(&mats.iter().map(|m| m.layout.clone()).collect::<Vec<_>>());
-    (
-        mats,
-        warped,
-        buf,
-        full_module(&shader_source()),
-        Gpu::new(),
-    )
+    let buf = pack(&mats.iter().map(|m| &m.decoder).collect::<Vec<_>>()).expect("pack");
+    for (m, &base) in mats.iter().zip(&buf.bases) {
+        assert_eq!(&buf.words[base as usize..][..m.layout.len()], &m.layout[..]);
+    }
+    (mats, warped, buf, full_module(&shader_source()), Gpu::new())
 }
 
 /// A unit direction in the upper hemisphere, rounded to f32.
@@ -109,7 +124,10 @@ struct Worst {
     ratio: f64,
     failures: usize,
     example: String,
-    /// The absolute part of the tolerance, as a fraction of M: `ABS_OF_MAX`, or a known limit's.
+    /// The relative part of the tolerance: `REL`, or `WARPED_REL`.
+    rel: f64,
+    /// The absolute part of the tolerance, as a fraction of M: `ABS_OF_MAX`, or a known limit's,
+    /// or `WARPED_ABS_OF_MAX`.
     abs_of_max: f64,
     /// Values over the strict tolerance (`ABS_OF_MAX`), counted also when a known limit applies.
     over_strict: usize,
@@ -117,16 +135,29 @@ struct Worst {
 
 impl Worst {
     fn new(abs_of_max: f64) -> Worst {
+        Worst::with(REL, abs_of_max)
+    }
+    /// The tolerance for a material: warped tables' (`WARPED_REL`, `WARPED_ABS_OF_MAX`) or the
+    /// strict one.
+    fn for_material(mat: &Material) -> Worst {
+        if mat.decoder.material().warped.is_some() {
+            Worst::with(WARPED_REL, WARPED_ABS_OF_MAX)
+        } else {
+            Worst::new(ABS_OF_MAX)
+        }
+    }
+    fn with(rel: f64, abs_of_max: f64) -> Worst {
         Worst {
             ratio: 0.0,
             failures: 0,
             example: String::new(),
+            rel,
             abs_of_max,
             over_strict: 0,
         }
     }
     fn check(&mut self, gpu: f32, cpu: f64, m: f64, what: impl FnOnce() -> String) {
-        let tol = REL * cpu.abs() + self.abs_of_max * m;
+        let tol = self.rel * cpu.abs() + self.abs_of_max * m;
         let err = (gpu as f64 - cpu).abs();
         // NaN error (non-finite GPU value) counts as over: `is_le` is false for unordered.
         let strict = REL * cpu.abs() + ABS_OF_MAX * m;
@@ -183,9 +214,11 @@ fn eval_matches_cpu_on_every_covered_sample() {
         let m = cpu.iter().fold(0.0f64, |a, &v| a.max(v.abs() as f64));
         assert!(m > 0.0, "{}: every CPU value is 0", mat.name);
         let known = KNOWN_F32_LIMIT.iter().find(|(n, _)| *n == mat.name);
-        let abs_of_max = known.map_or(ABS_OF_MAX, |&(_, a)| a);
-        let mut worst = Worst::new(abs_of_max);
-        let mut worst4 = Worst::new(abs_of_max);
+        let tolerance = || match known {
+            Some(&(_, a)) => Worst::new(a),
+            None => Worst::for_material(mat),
+        };
+        let (mut worst, mut worst4) = (tolerance(), tolerance());
         for (i, q) in queries.iter().enumerate() {
             let what = || format!("wi {:?} wo {:?} λ {}", q.wi, q.wo, q.lambda_nm);
             worst.check(out[i], cpu[i] as f64, m, what);
@@ -212,7 +245,7 @@ fn eval_matches_cpu_on_every_covered_sample() {
             .iter()
             .map(|q| mat.decoder.eval_linear_srgb(q.wi, q.wo, Illuminant::D65))
             .collect();
-        let mut worst_rgb = Worst::new(abs_of_max);
+        let mut worst_rgb = tolerance();
         for c in 0..3 {
             let mc = rgb_cpu.iter().fold(0.0f64, |a, v| a.max(v[c].abs()));
             for (i, q) in rgb_queries.iter().enumerate() {
@@ -386,6 +419,21 @@ const SAME_DRAW: f64 = 1e-4;
 /// at most this many f32 ulps, draws the device's direction (the component's cumulative weight,
 /// f32 on the device and f64 on the CPU, differs by a few ulps of 1).
 const BOUNDARY_ULPS: u32 = 16;
+/// A draw further from the CPU's than `SAME_DRAW` also counts as the same where the CPU's own
+/// draws for u.x moved by at most this many f32 ulps lie as far from it (the draw is that
+/// sensitive to u: measured on lavapipe, satin's table tail at u.x = 0.99999547 moves 8e-4 rad per
+/// ulp, and the device lands 1.5 ulps' worth away).
+const U_ULPS: u32 = 2;
+/// The relative tolerance of a warped table's pdf at the device's own draws (elsewhere
+/// `WARPED_REL`). The draws gather where a measured lobe is sharpest, and near the mirror
+/// direction the density of draws mirrored up from below the horizon grows as 1/|ωi + ω'o| (ω'o,
+/// the direction's image below: −ωi at the exact mirror), so the f32 rounding of the half vector
+/// moves the pdf more there than at random pairs. Measured on lavapipe (20 000 draws a file): worst
+/// relative differences 2.4e-3 (satin64, θi = 88.7°), 1.7e-3 (satin, θi = 88°), 4e-5 (paper); the
+/// shader forms the half vector where it is exact and takes ωo·m = |h|/2, without which the
+/// same draws differed by 25%.
+const SAMPLED_WARPED_REL: f64 = 3e-3;
+
 /// Samples per incidence for the χ² test, and the bins and quadrature grid of
 /// `tests/sampling.rs` (`every_golden_file_samples_by_its_pdf`): 9 × 18 bins in (θ, φ), each
 /// integrated on 60 × 24 cells.
@@ -431,7 +479,7 @@ fn pdf_matches_cpu_on_every_covered_sample() {
             .collect();
         let m = cpu.iter().fold(0.0f64, |a, &v| a.max(v as f64));
         assert!(m > 0.0, "{}: every CPU pdf is 0", mat.name);
-        let mut worst = Worst::new(ABS_OF_MAX);
+        let mut worst = Worst::for_material(mat);
         let mut worst_rel = 0.0f64;
         for (i, q) in queries.iter().enumerate() {
             worst.check(out[i], cpu[i] as f64, m, || {
@@ -455,11 +503,12 @@ fn pdf_matches_cpu_on_every_covered_sample() {
 }
 
 /// `sbrdf_sample(u)` against `Decoder::sample(u)` for the same f32 u: the same direction (within
-/// `SAME_DRAW`, or within the angle by which the CPU's own draw moves when u.x moves by one f32
-/// ulp, where a draw is that sensitive to u), except at component boundaries, each of which must be shown to be one (the CPU
-/// draws the device's direction from u.x moved by at most `BOUNDARY_ULPS` ulps); the device's pdf
-/// equals `Decoder::pdf` at the device's direction (the pdf test's tolerance); where the CPU gives
-/// None the device gives vec4(0).
+/// `SAME_DRAW`, or within the angle by which the CPU's own draw moves when u.x moves by up to
+/// `U_ULPS` f32 ulps, where a draw is that sensitive to u), except at component boundaries, each
+/// of which must be shown to be one (the CPU draws the device's direction from u.x moved by at
+/// most `BOUNDARY_ULPS` ulps); the device's pdf equals `Decoder::pdf` at the device's direction
+/// (the pdf test's tolerance; `SAMPLED_WARPED_REL` for warped tables);
+/// where the CPU gives None the device gives vec4(0).
 #[test]
 fn sample_matches_cpu_on_every_covered_sample() {
     let (mats, _, buf, module, gpu) = on_device();
@@ -520,10 +569,13 @@ fn sample_matches_cpu_on_every_covered_sample() {
                     if a <= SAME_DRAW {
                         same += 1;
                         max_angle = max_angle.max(a);
-                    } else if a <= step(-1).max(step(1)) {
-                        // Closer to the CPU's draw than the CPU's draws at the neighbouring f32
-                        // u.x are: a draw this sensitive to u (a small rescaled remainder of a
-                        // component of small weight) agrees to the resolution of u itself.
+                    } else if a
+                        <= (1..=U_ULPS as i32).fold(0.0f64, |x, k| x.max(step(-k)).max(step(k)))
+                    {
+                        // Closer to the CPU's draw than the CPU's draws at u.x a few f32 ulps away
+                        // are: a draw this sensitive to u (a small rescaled remainder of a
+                        // component of small weight, or the far end of a table's cumulative
+                        // integral) agrees to the resolution of u itself.
                         within_ulp += 1;
                         max_within_ulp = max_within_ulp.max(a);
                     } else {
@@ -556,7 +608,10 @@ fn sample_matches_cpu_on_every_covered_sample() {
             }
         }
         let m = pdf_pairs.iter().fold(0.0f64, |a, p| a.max(p.1 as f64));
-        let mut worst = Worst::new(ABS_OF_MAX);
+        let mut worst = Worst::for_material(mat);
+        if mat.decoder.material().warped.is_some() {
+            worst.rel = SAMPLED_WARPED_REL;
+        }
         for &(g, c, wi, wo) in &pdf_pairs {
             worst.check(g, c as f64, m, || format!("wi {wi:?} wo {wo:?}"));
         }
@@ -701,8 +756,10 @@ fn device_samples_follow_the_device_pdf() {
 /// `sbrdf_pdf` and `sbrdf_sample` at and past the edge, on every covered file: grazing and
 /// below-horizon directions, exactly horizontal ones, the zero vector and non-finite components,
 /// with u at 0, 1 − ulp, 1 and non-finite. No output may be non-finite; where the CPU gives 0
-/// (pdf) or None (sample) by its rule, the device gives exactly 0 (all four words for a sample);
-/// a device sample that is not 0 is a unit vector on or above the horizon with a positive pdf.
+/// (pdf) or None (sample) for input it refuses, the device gives exactly 0 (all four words for a
+/// sample); a device sample that is not 0 is a unit vector on or above the horizon with a
+/// positive pdf (where the CPU declines a degenerate draw for input it accepts, with a positive
+/// CPU pdf at it too).
 #[test]
 fn sampling_edges_are_finite_and_zero_like_the_cpu() {
     let (mats, _, buf, module, gpu) = on_device();
@@ -792,16 +849,26 @@ fn sampling_edges_are_finite_and_zero_like_the_cpu() {
             let u = [q.wo[0], q.wo[1]];
             let cpu = mat.decoder.sample(q.wi, u);
             let zero = g.iter().all(|&v| v == 0.0);
+            let len = (g[0] as f64).hypot(g[1] as f64).hypot(g[2] as f64);
+            let valid = g.iter().all(|v| v.is_finite())
+                && g[3] > 0.0
+                && g[2] >= 0.0
+                && (len - 1.0).abs() < 1e-5;
+            // Input the CPU accepts (u finite, wi on or above the horizon: it has a pdf).
+            let accepted =
+                u.iter().all(|v| v.is_finite()) && mat.decoder.pdf(q.wi, [0.0, 0.0, 1.0]) > 0.0;
             let bad = match cpu {
-                None => !zero,
-                Some(_) => {
-                    let len = (g[0] as f64).hypot(g[1] as f64).hypot(g[2] as f64);
-                    let valid = g.iter().all(|v| v.is_finite())
-                        && g[3] > 0.0
-                        && g[2] >= 0.0
-                        && (len - 1.0).abs() < 1e-5;
-                    !(zero || valid)
+                // A draw the CPU declines for input it accepts is a degenerate one: a warped
+                // table's half vector drawn at the pole for ωi on the horizon (ωi·m = 0, so
+                // the reflection is −ωi, on the horizon), from a row of the VNDF warp that
+                // holds no mass (u.y at 1). The device's f32 draw may land beside it: a valid
+                // direction there, with the CPU's density at it, is as good as none.
+                None if accepted => {
+                    let gwo = [g[0], g[1], g[2]];
+                    !(zero || (valid && mat.decoder.pdf(q.wi, gwo) > 0.0))
                 }
+                None => !zero,
+                Some(_) => !(zero || valid),
             };
             if bad {
                 problems.push(format!(
@@ -843,7 +910,7 @@ fn a_layout_without_sampling_section_samples_the_cosine() {
             l
         })
         .collect();
-    let buf = concatenate(&layouts);
+    let buf = pack_layouts(&layouts.iter().map(Vec::as_slice).collect::<Vec<_>>()).expect("pack");
     let mut rng = Rng(0x5B2D_F400);
     let mut pq = Vec::new();
     let mut sq = Vec::new();

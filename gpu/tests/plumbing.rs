@@ -1,23 +1,28 @@
-//! The harness itself, with a stand-in shader (`tests/probe.wgsl`): every covered sample's layout
-//! is placed in one buffer at a non-zero base (after NaN padding), and the kernel must read each
-//! material's own header words through its base. This is what `device.rs` relies on to address
-//! several materials in one buffer.
+//! The harness itself, with a stand-in shader (`tests/probe.wgsl`): every covered sample is put
+//! in one buffer by `sbrdf::gpu::pack`, and the kernel must read each material's own header
+//! words through its base. This is what `device.rs` relies on to address several materials in
+//! one buffer.
 
 mod common;
 use common::*;
 
 #[test]
 fn materials_are_addressed_by_base_offset() {
-    let layouts: Vec<Vec<u32>> = sample_files()
+    let decoders: Vec<sbrdf::Decoder> = sample_files()
         .iter()
-        .filter_map(|p| sbrdf::Decoder::open(p).unwrap().gpu_layout().ok())
+        .map(|p| sbrdf::Decoder::open(p).unwrap())
+        .filter(|d| d.gpu_layout().is_ok())
         .collect();
+    let layouts: Vec<Vec<u32>> = decoders.iter().map(|d| d.gpu_layout().unwrap()).collect();
     assert!(
         layouts.len() >= 2,
         "need several materials to test addressing"
     );
-    let buf = concatenate(&layouts);
-    assert!(buf.bases.iter().all(|&b| b > 0));
+    let buf = sbrdf::gpu::pack(&decoders.iter().collect::<Vec<_>>()).unwrap();
+    // Every material but the first sits at a non-zero base: a kernel that ignored `base` would
+    // read the first material's header for all of them.
+    assert_eq!(buf.bases[0], 0);
+    assert!(buf.bases.windows(2).all(|b| b[1] > b[0]));
     let module = full_module(include_str!("probe.wgsl"));
     let gpu = Gpu::new();
 

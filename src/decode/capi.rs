@@ -1,4 +1,5 @@
-//! The C ABI: one header (`include/sbrdf.h`) and `libsbrdf.a` / `libsbrdf.so`.
+//! The C ABI: one header (`include/sbrdf.h`) and `libsbrdf.a` / `libsbrdf.so` (the shared
+//! library from `cargo rustc --release --lib --crate-type cdylib`).
 //!
 //! Every function catches panics, so none crosses into C; pointers are checked for null; a
 //! decoder is immutable after opening, so one handle may be used from many threads at once.
@@ -270,6 +271,58 @@ pub unsafe extern "C" fn sbrdf_gpu_layout(
             return SBRDF_ERR_ARGUMENT;
         }
         std::slice::from_raw_parts_mut(words, layout.len()).copy_from_slice(&layout);
+        SBRDF_OK
+    })
+}
+
+/// Several materials' flat device layouts in one buffer ([`crate::gpu::pack`]): the layouts of
+/// `materials[0..count)` one after another, and `bases[i]` the word offset of material i's (the
+/// `base` the shader's functions take). `*word_count` always receives the number of words the
+/// buffer needs (0 on error); the words and the `count` bases are written only when `words` is
+/// not NULL and `capacity` (in words) holds them all, and then `bases` must not be NULL. Ask the
+/// size first with `words` = NULL; a non-NULL buffer that is too small is `SBRDF_ERR_ARGUMENT`
+/// with nothing written. A NULL material is `SBRDF_ERR_NULL`; no material (`count` = 0) is
+/// `SBRDF_ERR_ARGUMENT` (every file is covered, warped tables included). Builds the layouts on
+/// every call.
+#[no_mangle]
+pub unsafe extern "C" fn sbrdf_gpu_pack(
+    materials: *const *const sbrdf_t,
+    count: usize,
+    words: *mut u32,
+    capacity: usize,
+    word_count: *mut usize,
+    bases: *mut u32,
+) -> c_int {
+    guarded(|| {
+        if word_count.is_null() || (materials.is_null() && count > 0) {
+            return SBRDF_ERR_NULL;
+        }
+        *word_count = 0;
+        let handles: &[*const sbrdf_t] = if count == 0 {
+            &[]
+        } else {
+            std::slice::from_raw_parts(materials, count)
+        };
+        if handles.iter().any(|h| h.is_null()) {
+            return SBRDF_ERR_NULL;
+        }
+        let decoders: Vec<&Decoder> = handles.iter().map(|&h| &(*h).0).collect();
+        let packed = match super::gpu_pack::pack(&decoders) {
+            Ok(p) => p,
+            Err(e) => return code_of(&e),
+        };
+        *word_count = packed.words.len();
+        if words.is_null() {
+            return SBRDF_OK;
+        }
+        if bases.is_null() {
+            return SBRDF_ERR_NULL;
+        }
+        if capacity < packed.words.len() {
+            return SBRDF_ERR_ARGUMENT;
+        }
+        std::slice::from_raw_parts_mut(words, packed.words.len()).copy_from_slice(&packed.words);
+        std::slice::from_raw_parts_mut(bases, count).copy_from_slice(&packed.bases);
         SBRDF_OK
     })
 }

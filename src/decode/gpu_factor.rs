@@ -2,21 +2,12 @@
 //! section", kind 1): the `FACT` chunk's ranges, component descriptors and values as words, so
 //! that a shader adds F(ωi, ωo, λ) (`spec/EVALUATION.md`, "Factor model") to the records' value.
 
-use super::gpu_layout::{push_values, word, ENCODING_F16_PAIRS, ENCODING_F32};
+use super::gpu_layout::{push_values, word};
+use super::gpu_words::codes::{ENCODING_F16_PAIRS, ENCODING_F32, MODEL_FACTOR};
+use super::gpu_words::{component, factor, header, model as model_words};
 use crate::error::Result;
 use crate::model::factor::FactorModel;
 use crate::model::Precision;
-
-/// Header word holding the model section's offset (0: none).
-pub(crate) const HEADER_MODEL: usize = 19;
-/// Header word holding `total_words`.
-const HEADER_TOTAL: usize = 2;
-/// The model section's kind word for a factor model.
-const MODEL_FACTOR: u32 = 1;
-/// Words before the component entries: kind, encoding, C, reserved, ten range bounds.
-const FIXED_WORDS: usize = 14;
-/// Words per component entry: rank, feature count, packed feature codes, offset of the values.
-const COMPONENT_WORDS: usize = 4;
 
 /// Appends the model section of `model` to the layout `out` (whose header is complete) and
 /// points header word 19 at it; `total_words` is updated.
@@ -26,11 +17,17 @@ pub(crate) fn append_factor_section(out: &mut Vec<u32>, model: &FactorModel) -> 
         Precision::F16 => ENCODING_F16_PAIRS,
         Precision::F32 => ENCODING_F32,
     };
-    out.extend([MODEL_FACTOR, encoding, word(model.components.len())?, 0]);
-    out.extend(model.ranges.iter().flatten().map(|v| v.to_bits()));
+    out.resize(at + factor::WORDS, 0);
+    out[at + model_words::KIND] = MODEL_FACTOR;
+    out[at + factor::ENCODING] = encoding;
+    out[at + factor::COMPONENTS] = word(model.components.len())?;
+    out[at + factor::RESERVED] = 0;
+    let ranges = model.ranges.iter().flatten().map(|v| v.to_bits());
+    for (i, v) in ranges.enumerate() {
+        out[at + factor::RANGES + i] = v;
+    }
     let entries = out.len();
-    debug_assert_eq!(entries, at + FIXED_WORDS);
-    out.resize(entries + COMPONENT_WORDS * model.components.len(), 0);
+    out.resize(entries + component::WORDS * model.components.len(), 0);
     for (ci, c) in model.components.iter().enumerate() {
         // The values in the file's order: s_c, then per rank r its w_cr (r ≥ 1) and tables.
         let mut values: Vec<f32> = c.spectrum.clone();
@@ -50,13 +47,13 @@ pub(crate) fn append_factor_section(out: &mut Vec<u32>, model: &FactorModel) -> 
             .iter()
             .enumerate()
             .fold(0u32, |acc, (k, f)| acc | (f.code() as u32) << (4 * k));
-        let e = entries + COMPONENT_WORDS * ci;
-        out[e] = word(c.rank())?;
-        out[e + 1] = word(c.features.len())?;
-        out[e + 2] = codes;
-        out[e + 3] = word(off_values)?;
+        let e = &mut out[entries + component::WORDS * ci..][..component::WORDS];
+        e[component::RANK] = word(c.rank())?;
+        e[component::FEATURES] = word(c.features.len())?;
+        e[component::CODES] = codes;
+        e[component::OFF_VALUES] = word(off_values)?;
     }
-    out[HEADER_MODEL] = word(at)?;
-    out[HEADER_TOTAL] = word(out.len())?;
+    out[header::OFF_MODEL] = word(at)?;
+    out[header::TOTAL] = word(out.len())?;
     Ok(())
 }

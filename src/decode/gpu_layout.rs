@@ -2,6 +2,10 @@
 //! (f32 and u32, offsets instead of pointers) that a shader evaluates with bounded loops. Built
 //! from the decoder's resident form, so it holds exactly the values the decoder evaluates.
 
+use super::gpu_words::codes::{
+    ENCODING_F16_PAIRS, ENCODING_F32, INCIDENCE_ISOTROPIC, INCIDENCE_LATTICE, INCIDENCE_SCATTERED,
+};
+use super::gpu_words::{codes, header, lobe, record};
 use super::resident::{Rec, Resident};
 use crate::error::{Error, Result};
 use crate::format::f16_scale;
@@ -10,19 +14,9 @@ use crate::model::Precision;
 use half::f16;
 
 /// `SBGL` read as a little-endian u32: the first word of every layout.
-pub const GPU_LAYOUT_MAGIC: u32 = u32::from_le_bytes(*b"SBGL");
+pub const GPU_LAYOUT_MAGIC: u32 = codes::MAGIC;
 /// The version of `spec/GPU_LAYOUT.md` this module writes.
 pub const GPU_LAYOUT_VERSION: u32 = 4;
-/// Words in the header.
-const HEADER_WORDS: usize = 20;
-/// Words in a record table entry.
-const RECORD_WORDS: usize = 12;
-/// Words in a lobe table entry.
-const LOBE_WORDS: usize = 3;
-
-/// Value encodings of a record (`spec/GPU_LAYOUT.md`, "Value encodings").
-pub(super) const ENCODING_F32: u32 = 1;
-pub(super) const ENCODING_F16_PAIRS: u32 = 2;
 
 /// The header, wavelengths, basis table, stored incidences and record table of a resident
 /// material (its sections are appended by the caller).
@@ -31,17 +25,17 @@ pub(crate) fn gpu_layout(res: &Resident) -> Result<Vec<u32>> {
     let phis = distinct_sorted(res.recs.iter().map(|r| r.phi_i));
     // `spec/EVALUATION.md`, "The lattice of stored incidences".
     let incidence_layout: u32 = if res.isotropic {
-        0
+        INCIDENCE_ISOTROPIC
     } else if thetas.len() * phis.len() == res.recs.len() {
-        1
+        INCIDENCE_LATTICE
     } else {
-        2
+        INCIDENCE_SCATTERED
     };
     let table = res.spectrum.table();
     let k = res.spectral.terms;
     let w = res.wavelengths.len();
 
-    let mut out = vec![0u32; HEADER_WORDS];
+    let mut out = vec![0u32; header::WORDS];
     let off_waves = out.len();
     out.extend(res.wavelengths.iter().map(|v| v.to_bits()));
     let off_table = match &table {
@@ -58,9 +52,9 @@ pub(crate) fn gpu_layout(res: &Resident) -> Result<Vec<u32>> {
     let off_phis = out.len();
     out.extend(phis.iter().map(|v| v.to_bits()));
     let off_records = out.len();
-    out.resize(off_records + RECORD_WORDS * res.recs.len(), 0);
+    out.resize(off_records + record::WORDS * res.recs.len(), 0);
     for (ri, r) in res.recs.iter().enumerate() {
-        let at = off_records + RECORD_WORDS * ri;
+        let at = off_records + record::WORDS * ri;
         let (encoding, scale) = record_encoding(res, r);
         let p = sh_count(r.level as usize);
         let t = r.terms as usize;
@@ -72,7 +66,7 @@ pub(crate) fn gpu_layout(res: &Resident) -> Result<Vec<u32>> {
             scale,
         );
         let off_lobes = out.len();
-        out.resize(off_lobes + LOBE_WORDS * r.nlobes as usize, 0);
+        out.resize(off_lobes + lobe::WORDS * r.nlobes as usize, 0);
         for li in 0..r.nlobes as usize {
             let l = res.lobe(r, li);
             let na = l.kind.amplitude_count(t);
@@ -85,50 +79,48 @@ pub(crate) fn gpu_layout(res: &Resident) -> Result<Vec<u32>> {
             );
             let off_par = out.len();
             out.extend(res.params(r, l).iter().map(|v| v.to_bits()));
-            let e = off_lobes + LOBE_WORDS * li;
-            out[e] = l.kind.code() as u32;
-            out[e + 1] = word(off_amp)?;
-            out[e + 2] = word(off_par)?;
+            let e = &mut out[off_lobes + lobe::WORDS * li..][..lobe::WORDS];
+            e[lobe::KIND] = l.kind.code() as u32;
+            e[lobe::OFF_AMPLITUDES] = word(off_amp)?;
+            e[lobe::OFF_PARAMETERS] = word(off_par)?;
         }
-        let entry = [
-            r.theta_i.to_bits(),
-            r.phi_i.to_bits(),
-            r.theta_p.to_bits(),
-            r.phi_p.to_bits(),
-            r.level as u32,
-            r.terms as u32,
-            r.nlobes as u32,
-            encoding,
-            scale.to_bits(),
-            word(off_sh)?,
-            word(off_lobes)?,
-            0,
-        ];
-        out[at..at + RECORD_WORDS].copy_from_slice(&entry);
+        let e = &mut out[at..at + record::WORDS];
+        e[record::THETA_I] = r.theta_i.to_bits();
+        e[record::PHI_I] = r.phi_i.to_bits();
+        e[record::THETA_P] = r.theta_p.to_bits();
+        e[record::PHI_P] = r.phi_p.to_bits();
+        e[record::LEVEL] = r.level as u32;
+        e[record::TERMS] = r.terms as u32;
+        e[record::LOBES] = r.nlobes as u32;
+        e[record::ENCODING] = encoding;
+        e[record::SCALE] = scale.to_bits();
+        e[record::OFF_SH] = word(off_sh)?;
+        e[record::OFF_LOBES] = word(off_lobes)?;
+        e[record::RESERVED] = 0;
     }
-    let header = [
-        GPU_LAYOUT_MAGIC,
-        GPU_LAYOUT_VERSION,
-        word(out.len())?,
-        incidence_layout,
-        res.spectral.basis.code() as u32,
-        word(k)?,
-        word(res.sh_level)?,
-        word(w)?,
-        word(res.recs.len())?,
-        word(thetas.len())?,
-        word(phis.len())?,
-        (res.spectral.lambda_min as f32).to_bits(),
-        (res.spectral.lambda_max as f32).to_bits(),
-        word(off_waves)?,
-        word(off_table)?,
-        word(off_thetas)?,
-        word(off_phis)?,
-        word(off_records)?,
-        0,
-        0,
-    ];
-    out[..HEADER_WORDS].copy_from_slice(&header);
+    let total = word(out.len())?;
+    let h = &mut out[..header::WORDS];
+    h[header::MAGIC] = GPU_LAYOUT_MAGIC;
+    h[header::VERSION] = GPU_LAYOUT_VERSION;
+    h[header::TOTAL] = total;
+    h[header::INCIDENCE] = incidence_layout;
+    h[header::BASIS] = res.spectral.basis.code() as u32;
+    h[header::TERMS] = word(k)?;
+    h[header::SH_LEVEL] = word(res.sh_level)?;
+    h[header::WAVES] = word(w)?;
+    h[header::RECORDS] = word(res.recs.len())?;
+    h[header::THETAS] = word(thetas.len())?;
+    h[header::PHIS] = word(phis.len())?;
+    h[header::LAMBDA_MIN] = (res.spectral.lambda_min as f32).to_bits();
+    h[header::LAMBDA_MAX] = (res.spectral.lambda_max as f32).to_bits();
+    h[header::OFF_WAVES] = word(off_waves)?;
+    h[header::OFF_BASIS_TABLE] = word(off_table)?;
+    h[header::OFF_THETAS] = word(off_thetas)?;
+    h[header::OFF_PHIS] = word(off_phis)?;
+    h[header::OFF_RECORDS] = word(off_records)?;
+    // The sampling and model sections are appended after (gpu_sampling.rs, gpu_factor.rs).
+    h[header::OFF_SAMPLING] = 0;
+    h[header::OFF_MODEL] = 0;
     Ok(out)
 }
 

@@ -3,13 +3,10 @@
 //! ([`super::sampling::SamplingWeights`]), as f32 words, so that a shader draws and gives the
 //! pdf of the same mixture as [`crate::Decoder::sample`] and [`crate::Decoder::pdf`].
 
+use super::gpu_layout::word;
+use super::gpu_words::{header, lobe_weights, sampling, weights as record_weights};
 use super::sampling::SamplingWeights;
-use crate::error::{Error, Result};
-
-/// Header word holding the sampling section's offset (0: none).
-pub(crate) const HEADER_SAMPLING: usize = 18;
-/// Header word holding `total_words`.
-const HEADER_TOTAL: usize = 2;
+use crate::error::Result;
 
 /// Appends the sampling section of `records` records to the layout `out` (whose header is
 /// complete) and points header word 18 at it; `total_words` is updated.
@@ -20,18 +17,22 @@ pub(crate) fn append_sampling_section(
 ) -> Result<()> {
     let at = out.len();
     // The record index: one offset per record, then each record's weights.
-    out.resize(at + records, 0);
+    out.resize(at + sampling::WORDS * records, 0);
     for r in 0..records {
-        out[at + r] = word(out.len())?;
+        out[at + sampling::WORDS * r + sampling::OFF_WEIGHTS] = word(out.len())?;
         let (background, lobes) = weights.record(r);
-        out.push(f32_word(background));
+        let start = out.len();
+        out.resize(start + record_weights::WORDS, 0);
+        out[start + record_weights::BACKGROUND] = f32_word(background);
         for (energy, ln_width) in lobes {
-            out.push(f32_word(energy));
-            out.push(f32_word(ln_width));
+            let l = out.len();
+            out.resize(l + lobe_weights::WORDS, 0);
+            out[l + lobe_weights::ENERGY] = f32_word(energy);
+            out[l + lobe_weights::LN_WIDTH] = f32_word(ln_width);
         }
     }
-    out[HEADER_SAMPLING] = word(at)?;
-    out[HEADER_TOTAL] = word(out.len())?;
+    out[header::OFF_SAMPLING] = word(at)?;
+    out[header::TOTAL] = word(out.len())?;
     Ok(())
 }
 
@@ -41,11 +42,4 @@ pub(crate) fn append_sampling_section(
 /// treats exactly as the decoder treats a non-finite or zero weight.
 fn f32_word(v: f64) -> u32 {
     (v as f32).to_bits()
-}
-
-/// An offset as a u32 word; a layout past 2³² words cannot be addressed.
-fn word(v: usize) -> Result<u32> {
-    u32::try_from(v).map_err(|_| {
-        Error::LimitsExceeded("gpu layout: more than 2^32 words cannot be addressed".into())
-    })
 }

@@ -3,12 +3,9 @@
 //! (`super::warped::CompactTables`), appended as it is, so that a shader reads the numbers the
 //! CPU decoder evaluates.
 
-use super::gpu_factor::HEADER_MODEL;
 use super::gpu_layout::word;
+use super::gpu_words::header;
 use crate::error::Result;
-
-/// Header word holding `total_words`.
-const HEADER_TOTAL: usize = 2;
 
 /// Appends a warped-tables section (its words, offsets relative to its first word) to the
 /// layout `out` (whose header is complete) and points header word 19 at it; `total_words` is
@@ -16,7 +13,7 @@ const HEADER_TOTAL: usize = 2;
 pub(crate) fn append_warped_section(out: &mut Vec<u32>, section: &[u32]) -> Result<()> {
     let at = out.len();
     out.extend_from_slice(section);
-    out[HEADER_MODEL] = word(at)?;
-    out[HEADER_TOTAL] = word(out.len())?;
+    out[header::OFF_MODEL] = word(at)?;
+    out[header::TOTAL] = word(out.len())?;
     Ok(())
 }

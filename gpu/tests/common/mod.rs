@@ -1,6 +1,7 @@
 //! What the tests share: the shader's path, the host prelude (the bindings the shader's contract
 //! leaves to the host), the sample files, a seeded generator, and a minimal wgpu harness that runs
-//! one compute entry point over a buffer of queries.
+//! one compute entry point over a buffer of queries. Materials are put in one buffer by
+//! `sbrdf::gpu::pack`, as a renderer does.
 
 #![allow(dead_code)] // each test file uses its own part of this module
 
@@ -139,26 +140,6 @@ pub fn query_words(q: &[Query]) -> Vec<u32> {
     w
 }
 
-/// A material list laid out in one buffer: each material's base word offset in `words`.
-pub struct Buffer {
-    pub words: Vec<u32>,
-    pub bases: Vec<u32>,
-}
-
-/// Concatenates layouts, each after a gap of NaN words, so that every material (the first too)
-/// sits at a non-zero base and a kernel that ignored `base`, or read before it, would read NaN.
-pub fn concatenate(layouts: &[Vec<u32>]) -> Buffer {
-    const GAP: usize = 3;
-    let mut words = Vec::new();
-    let mut bases = Vec::new();
-    for l in layouts {
-        words.extend(std::iter::repeat_n(f32::NAN.to_bits(), GAP));
-        bases.push(words.len() as u32);
-        words.extend_from_slice(l);
-    }
-    Buffer { words, bases }
-}
-
 /// A wgpu device on a Vulkan adapter, a CPU one (lavapipe) when there is one.
 pub struct Gpu {
     pub device: wgpu::Device,
@@ -282,11 +263,24 @@ impl Gpu {
         }
         let slice = read_buf.slice(..);
         slice.map_async(wgpu::MapMode::Read, |r| r.expect("map"));
-        d.poll(wgpu::PollType::Wait).expect("poll");
+        wait(d);
         let data = slice.get_mapped_range();
         data.chunks_exact(4)
             .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
             .collect()
+    }
+}
+
+/// Waits for the device's work to finish. wgpu gives up a wait after 60 s; lavapipe shares the
+/// machine's cores among every test's device (and CI's other jobs), so a small dispatch can wait
+/// that long behind another test's large ones: wait again rather than fail (a shader that never
+/// finishes still hangs the test, which the harness's timeout reports).
+pub fn wait(d: &wgpu::Device) {
+    loop {
+        match d.poll(wgpu::PollType::Wait) {
+            Ok(_) => return,
+            Err(wgpu::PollError::Timeout) => eprintln!("still waiting for the device (60 s more)"),
+        }
     }
 }
 

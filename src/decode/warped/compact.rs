@@ -10,44 +10,22 @@
 //! (`super::vndf`); everything else is f32.
 
 use super::source::{averaged, values_density, Dims, ExactTables, Incidence, ValuesRow};
-use super::source::{TableView, VndfRow, WarpSource, MARKS};
+use super::source::{TableView, VndfRow, WarpSource};
 use super::vndf::Column;
+use crate::decode::gpu_words::{
+    codes, warped, warped_column, warped_incidence, warped_table, warped_values,
+};
 use crate::error::{Error, Result};
 
-/// The section's kind word (header word 19's model section).
-pub(crate) const KIND_WARPED: u32 = 2;
-/// Words in the section's header.
-pub(crate) const HEADER_WORDS: usize = 16;
-/// Header words: kind, N, K, R, G, M, then the offsets (relative to the section's first word)
-/// of each array.
-pub(crate) const H_KIND: usize = 0;
-pub(crate) const H_N: usize = 1;
-pub(crate) const H_K: usize = 2;
-pub(crate) const H_R: usize = 3;
-pub(crate) const H_G: usize = 4;
-pub(crate) const H_M: usize = 5;
-pub(crate) const H_INCIDENCES: usize = 6;
-pub(crate) const H_NDF: usize = 7;
-pub(crate) const H_SIGMA: usize = 8;
-pub(crate) const H_COLUMNS: usize = 9;
-pub(crate) const H_ROW_COSINES: usize = 10;
-pub(crate) const H_VNDF_ROWS: usize = 11;
-pub(crate) const H_TABLES: usize = 12;
-pub(crate) const H_VALUES_ROWS: usize = 13;
-pub(crate) const H_BASIS_MEANS: usize = 14;
-/// Words per stored incidence: θ (radians), sin θ, cos θ, 1/I, the values' 1/total and floor.
-pub(crate) const INCIDENCE_WORDS: usize = 6;
-/// Words per VNDF column: f, sin θm, cos θm, U, V.
-pub(crate) const COLUMN_WORDS: usize = 5;
-/// Words per VNDF row: the positive run (low 9 bits) and the marginal in 23-bit fixed point
-/// (the high bits: marg·2²³, rounded, at most 2²³ − 1).
-pub(crate) const VNDF_ROW_WORDS: usize = 1;
-/// Bits of a VNDF row's first word that hold its positive run (G ≤ 256: 0 to 256).
-pub(crate) const POSITIVE_BITS: u32 = 9;
-/// Words per table entry: offset of its codes, bits per code, least value (f32), step (f32).
-pub(crate) const TABLE_WORDS: usize = 4;
-/// Words per values row: total, marginal, the three marks' conditional integrals (f32).
-pub(crate) const VALUES_ROW_WORDS: usize = 2 + MARKS;
+// Word offsets and sizes are the layout's one definition (`crate::decode::gpu_words`): the
+// section's header (`warped`), a stored incidence (6 words: θ, sin θ, cos θ, 1/I, the values'
+// 1/total and floor), a VNDF column (5: f, sin θm, cos θm, U, V), a VNDF row (1 word: the
+// positive run in the low WARP_POSITIVE_BITS bits, the marginal above in 23-bit fixed point), a
+// table entry (4: offset of its codes, bits, lo, step) and a values row (total, marginal, the
+// marks' conditional integrals).
+/// Words per VNDF row.
+const VNDF_ROW_WORDS: usize = 1;
+const POSITIVE_BITS: u32 = codes::WARP_POSITIVE_BITS;
 /// The packing step is the file's quantisation step divided by this.
 pub(crate) const STEP_DIVISOR: f32 = 256.0;
 /// Most bits per code: beyond, the step grows to span the table in 2²⁴ − 1 steps (an f32 holds
@@ -163,14 +141,20 @@ impl CompactTables {
     pub(crate) fn new(exact: &ExactTables, steps: &[f32]) -> Result<Self> {
         let d = exact.dims;
         let rr = d.r * d.r;
-        let mut out = vec![0u32; HEADER_WORDS];
+        let mut out = vec![0u32; warped::WORDS];
         let f = |v: f64| (v as f32).to_bits();
-        let mut header = [0u32; HEADER_WORDS];
-        header[H_KIND] = KIND_WARPED;
-        for (at, v) in [(H_N, d.n), (H_K, d.k), (H_R, d.r), (H_G, d.g), (H_M, d.m)] {
+        let mut header = [0u32; warped::WORDS];
+        header[warped::KIND] = codes::MODEL_WARPED;
+        for (at, v) in [
+            (warped::N, d.n),
+            (warped::K, d.k),
+            (warped::R, d.r),
+            (warped::G, d.g),
+            (warped::M, d.m),
+        ] {
             header[at] = word(v)?;
         }
-        header[H_INCIDENCES] = word(out.len())?;
+        header[warped::OFF_INCIDENCES] = word(out.len())?;
         // The values' scale and floor are the packed tables' own (filled in below).
         let incidences_at = out.len();
         for inc in &exact.incidences {
@@ -183,28 +167,28 @@ impl CompactTables {
                 0,
             ]);
         }
-        header[H_NDF] = word(out.len())?;
+        header[warped::OFF_NDF] = word(out.len())?;
         out.extend(exact.ndf.iter().map(|v| v.to_bits()));
-        header[H_SIGMA] = word(out.len())?;
+        header[warped::OFF_SIGMA] = word(out.len())?;
         out.extend(exact.sigma.iter().map(|&v| f(v)));
-        header[H_COLUMNS] = word(out.len())?;
+        header[warped::OFF_COLUMNS] = word(out.len())?;
         for c in &exact.columns {
             out.extend([f(c.f), f(c.sin), f(c.cos), f(c.u), f(c.v)]);
         }
-        header[H_ROW_COSINES] = word(out.len())?;
+        header[warped::OFF_ROW_COSINES] = word(out.len())?;
         out.extend(exact.cos_phi.iter().map(|&v| f(v)));
-        header[H_VNDF_ROWS] = word(out.len())?;
+        header[warped::OFF_VNDF_ROWS] = word(out.len())?;
         for r in &exact.vndf_rows {
             out.push(pack_marg(r.marg, r.positive));
         }
-        header[H_BASIS_MEANS] = word(out.len())?;
+        header[warped::OFF_BASIS_MEANS] = word(out.len())?;
         out.extend(exact.basis_means.iter().map(|&v| f(v)));
-        header[H_VALUES_ROWS] = word(out.len())?;
+        header[warped::OFF_VALUES_ROWS] = word(out.len())?;
         let values_at = out.len();
-        out.resize(values_at + VALUES_ROW_WORDS * d.n * d.r, 0);
-        header[H_TABLES] = word(out.len())?;
+        out.resize(values_at + warped_values::WORDS * d.n * d.r, 0);
+        header[warped::OFF_TABLES] = word(out.len())?;
         let entries = out.len();
-        out.resize(entries + TABLE_WORDS * d.n * d.k, 0);
+        out.resize(entries + warped_table::WORDS * d.n * d.k, 0);
         for t in 0..d.n * d.k {
             let values = &exact.tables[t * rr..(t + 1) * rr];
             let p = Packing::of(values, steps[t]);
@@ -220,17 +204,13 @@ impl CompactTables {
                     out[w + 1] |= (shifted >> 32) as u32;
                 }
             }
-            out[entries + TABLE_WORDS * t..entries + TABLE_WORDS * (t + 1)].copy_from_slice(&[
-                word(at)?,
-                p.bits,
-                p.lo.to_bits(),
-                p.step.to_bits(),
-            ]);
+            out[entries + warped_table::WORDS * t..entries + warped_table::WORDS * (t + 1)]
+                .copy_from_slice(&[word(at)?, p.bits, p.lo.to_bits(), p.step.to_bits()]);
         }
         // One word past the last code, so that a read of two words never leaves the section.
         out.push(0);
         out.shrink_to_fit();
-        out[..HEADER_WORDS].copy_from_slice(&header);
+        out[..warped::WORDS].copy_from_slice(&header);
         let mut compact = CompactTables::read(out)?;
         // The values' density from the packed tables and the section's f32 basis means, so
         // that sampling draws from and reports the density of the numbers it reads.
@@ -244,14 +224,16 @@ impl CompactTables {
                     || Error::Parameter("warped tables: a slice's values sum to zero".into()),
                 )?;
             let w = &mut compact.words;
-            w[incidences_at + INCIDENCE_WORDS * i + 4] = f(scale);
-            w[incidences_at + INCIDENCE_WORDS * i + 5] = f(floor);
+            w[incidences_at + warped_incidence::WORDS * i + warped_incidence::VALUES_SCALE] =
+                f(scale);
+            w[incidences_at + warped_incidence::WORDS * i + warped_incidence::VALUES_FLOOR] =
+                f(floor);
             for (b, row) in rows.iter().enumerate() {
-                let at = values_at + VALUES_ROW_WORDS * (i * d.r + b);
-                w[at] = f(row.total);
-                w[at + 1] = f(row.marg);
+                let at = values_at + warped_values::WORDS * (i * d.r + b);
+                w[at + warped_values::TOTAL] = f(row.total);
+                w[at + warped_values::MARG] = f(row.marg);
                 for (j, m) in row.marks.iter().enumerate() {
-                    w[at + 2 + j] = f(*m);
+                    w[at + warped_values::MARKS + j] = f(*m);
                 }
             }
         }
@@ -262,31 +244,36 @@ impl CompactTables {
     fn read(words: Vec<u32>) -> Result<Self> {
         let h = |i: usize| words[i] as usize;
         let dims = Dims {
-            n: h(H_N),
-            k: h(H_K),
-            r: h(H_R),
-            g: h(H_G),
-            m: h(H_M),
+            n: h(warped::N),
+            k: h(warped::K),
+            r: h(warped::R),
+            g: h(warped::G),
+            m: h(warped::M),
         };
-        let tables = h(H_TABLES);
+        let tables = h(warped::OFF_TABLES);
         let entries = (0..dims.n * dims.k)
             .map(|t| {
-                let e = tables + TABLE_WORDS * t;
+                let e = tables + warped_table::WORDS * t;
                 let f = |i: usize| f32::from_bits(words[i]) as f64;
-                (words[e] as usize, words[e + 1], f(e + 2), f(e + 3))
+                (
+                    words[e + warped_table::OFF_CODES] as usize,
+                    words[e + warped_table::BITS],
+                    f(e + warped_table::LO),
+                    f(e + warped_table::STEP),
+                )
             })
             .collect();
         Ok(CompactTables {
             dims,
             entries,
-            incidences: h(H_INCIDENCES),
-            ndf: h(H_NDF),
-            sigma: h(H_SIGMA),
-            columns: h(H_COLUMNS),
-            row_cosines: h(H_ROW_COSINES),
-            vndf_rows: h(H_VNDF_ROWS),
-            values_rows: h(H_VALUES_ROWS),
-            basis_means: h(H_BASIS_MEANS),
+            incidences: h(warped::OFF_INCIDENCES),
+            ndf: h(warped::OFF_NDF),
+            sigma: h(warped::OFF_SIGMA),
+            columns: h(warped::OFF_COLUMNS),
+            row_cosines: h(warped::OFF_ROW_COSINES),
+            vndf_rows: h(warped::OFF_VNDF_ROWS),
+            values_rows: h(warped::OFF_VALUES_ROWS),
+            basis_means: h(warped::OFF_BASIS_MEANS),
             words,
         })
     }
@@ -304,7 +291,7 @@ impl CompactTables {
     /// Table t's packing, as its entry in the words says.
     #[cfg(test)]
     pub(crate) fn packing(&self, t: usize) -> Packing {
-        let e = self.words[H_TABLES] as usize + TABLE_WORDS * t;
+        let e = self.words[warped::OFF_TABLES] as usize + warped_table::WORDS * t;
         Packing {
             bits: self.words[e + 1],
             lo: f32::from_bits(self.words[e + 2]),
@@ -375,12 +362,12 @@ impl WarpSource for CompactTables {
     }
     #[inline(always)]
     fn theta(&self, i: usize) -> f64 {
-        self.f(self.incidences + INCIDENCE_WORDS * i)
+        self.f(self.incidences + warped_incidence::WORDS * i)
     }
     #[inline(always)]
     fn incidence(&self, i: usize) -> Incidence {
         let [theta, sin, cos, vndf_scale, values_scale, values_floor] =
-            self.fs::<INCIDENCE_WORDS>(self.incidences + INCIDENCE_WORDS * i);
+            self.fs::<{ warped_incidence::WORDS }>(self.incidences + warped_incidence::WORDS * i);
         Incidence {
             theta,
             sin,
@@ -400,7 +387,8 @@ impl WarpSource for CompactTables {
     }
     #[inline(always)]
     fn column(&self, a: usize) -> Column {
-        let [f, sin, cos, u, v] = self.fs::<COLUMN_WORDS>(self.columns + COLUMN_WORDS * a);
+        let [f, sin, cos, u, v] =
+            self.fs::<{ warped_column::WORDS }>(self.columns + warped_column::WORDS * a);
         Column { f, sin, cos, u, v }
     }
     #[inline(always)]
@@ -428,8 +416,9 @@ impl WarpSource for CompactTables {
     }
     #[inline(always)]
     fn values_row(&self, i: usize, b: usize) -> ValuesRow {
-        let [total, marg, m1, m2, m3] = self
-            .fs::<VALUES_ROW_WORDS>(self.values_rows + VALUES_ROW_WORDS * (i * self.dims.r + b));
+        let [total, marg, m1, m2, m3] = self.fs::<{ warped_values::WORDS }>(
+            self.values_rows + warped_values::WORDS * (i * self.dims.r + b),
+        );
         ValuesRow {
             total,
             marg,
