@@ -1850,23 +1850,32 @@ fn sbrdf_warp_nodes(o: u32, m: u32, x: f32) -> f32 {
     return a + (sbrdf_f(o + i + 1u) - a) * c.y;
 }
 
+// The half vector's distance from the pole under which it is the pole, and the least cosine of
+// the light's direction the tables divide by (EVALUATION.md, "Warped tables", Value steps 1
+// and 5; src/model/warped.rs POLE_HALF_XY, HORIZON_COS).
+const SBRDF_WARP_POLE_XY: f32 = 1e-9;
+const SBRDF_WARP_HORIZON_COS: f32 = 0.015625;
+
 // What an evaluation at unit ui, uo (above the horizon) reads of the tables, into the query's
 // record fields (a warped query blends no records): rec[0], rec[1] the slices, w[0] the upper
 // one's weight; rec[2] the first node of the tables' cell (the upper row's is rec[2] + R), w[1],
-// w[2] the position in the cell; w[3] = D(u_x) / (4 sigma) / cos theta_i (0: rho is 0 there).
+// w[2] the position in the cell; w[3] = D(u_x) / (4 sigma) / max(cos theta_i, 2^-6) (0: none).
 // The tables follow the viewer's direction uo: in the tables' frame the roles of the two
 // directions are exchanged.
 fn sbrdf_warp_query(w: u32, ui: vec3<f32>, uo: vec3<f32>, q: ptr<function, SbrdfQuery>) {
     (*q).w[3] = 0.0;
     let fr = sbrdf_warp_frame(uo);
-    let a = vec3<f32>(sqrt(uo.x * uo.x + uo.y * uo.y), 0.0, uo.z);
-    let b = sbrdf_warp_in(fr, ui);
-    let h = a + b;
-    let len = length(h);
-    if (b.z <= 0.0 || !(len > 0.0)) {
+    if (!(ui.z >= 0.0)) {
         return;
     }
-    let u = sbrdf_warp_half(h / len);
+    // h summed in the surface's frame, where a mirror pair's x and y cancel exactly, then turned.
+    // Within SBRDF_WARP_POLE_XY of the pole (the mirror direction, or both directions opposite
+    // on the horizon) it is the pole: u = (0, 1/2) (EVALUATION.md, "Warped tables", Value 1).
+    let h = sbrdf_warp_in(fr, uo + ui);
+    var u = vec3<f32>(0.0, 0.5, 0.0);
+    if (sqrt(h.x * h.x + h.y * h.y) > SBRDF_WARP_POLE_XY) {
+        u = sbrdf_warp_half(normalize(h));
+    }
     let sl = sbrdf_warp_slices(w, fr.z);
     let s = sbrdf_warp_invert(w, sl, u.x, u.y);
     let m = sbrdf_u(w + SBRDF_WARP_M);
@@ -1882,7 +1891,7 @@ fn sbrdf_warp_query(w: u32, ui: vec3<f32>, uo: vec3<f32>, q: ptr<function, Sbrdf
     (*q).w[0] = sl.t;
     (*q).w[1] = cx.y;
     (*q).w[2] = cy.y;
-    (*q).w[3] = d / (4.0 * sigma) / b.z;
+    (*q).w[3] = d / (4.0 * sigma) / max(ui.z, SBRDF_WARP_HORIZON_COS);
 }
 
 // Terms k0 .. k0 + 3 of the tables' spectral coefficients at the query (blended between the

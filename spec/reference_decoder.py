@@ -1175,8 +1175,11 @@ class SbrdfFile:
             return zero
         if not (0 <= theta_i <= 90 and 0 <= theta_o <= 90):  # steps 1 and 2
             return zero
+        # The tables' direction (the query's ωo) is turned to azimuth 0, except on the pole,
+        # where its vector d(0, φo) has r = 0 and there is no rotation ("Warped tables", Value).
+        psi_o = phi_o if theta_o > 0 else 0.0
         if getattr(self, "warp_layout", None) is not None:  # a layout's warped tables
-            c = self.warp_layout.coefficients(d(theta_i, phi_i - phi_o), d(theta_o, 0.0))
+            c = self.warp_layout.coefficients(d(theta_i, phi_i - psi_o), d(theta_o, 0.0))
             out = []
             for lam in wavelengths:
                 if c is None or not math.isfinite(lam):
@@ -1190,7 +1193,7 @@ class SbrdfFile:
             # direction, so steps 1–3 and the Value are applied with the roles exchanged: the
             # query's ωo is turned to azimuth 0 and plays the tables' incidence, the query's ωi
             # (rotated by −φo) the other direction.
-            return self.warp_eval(theta_o, d(theta_o, 0.0), d(theta_i, phi_i - phi_o),
+            return self.warp_eval(theta_o, d(theta_o, 0.0), d(theta_i, phi_i - psi_o),
                                   wavelengths)
         psi = phi_i if self.isotropic else 0.0  # step 3
         w = d(theta_o, phi_o - psi)
@@ -1279,17 +1282,8 @@ class SbrdfFile:
         incidence weights and σ follow the query's θo; the division is by the cosine of the
         query's θi."""
         zero = [0.0] * len(wavelengths)
-        # step 1: the half vector and its u
-        h = (wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2])
-        hn = math.sqrt(dot(h, h))
-        if hn == 0:
-            return zero
-        m = (h[0] / hn, h[1] / hn, h[2] / hn)
-        theta_m = math.atan2(math.sqrt(m[0] * m[0] + m[1] * m[1]), m[2])
-        phi_m = math.atan2(m[1], m[0])
-        ux = math.sqrt(theta_m / (math.pi / 2))
-        uy = (phi_m + math.pi) / (2 * math.pi)
-        uy -= math.floor(uy)
+        # step 1: the half vector and its u (the pole within 10⁻⁹ of it)
+        ux, uy = warp_half_parameter((wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]))
         # step 2: incidence weights, θi clamped to the stored range
         ths = self.warp_thetas
         th = math.radians(theta_i)
@@ -1309,8 +1303,9 @@ class SbrdfFile:
         # step 5: ρ = max(0, Σ_k v_k B_k(λ) · D(u_x) / (4 σ(θi)) / cos θo), unclamped θi in σ
         # (in the query's names: σ at the viewing θo, divided by the cosine of the light's θi)
         cos_o = wo[2]
-        if cos_o <= 0:
+        if not cos_o >= 0:
             return zero
+        cos_o = max(cos_o, WARP_HORIZON_COS)
         ndf = self.warp_ndf(ux)
         sigma = lerp_nodes(self.warp_sigma, math.sqrt(th / (math.pi / 2)))
         out = []
@@ -1485,6 +1480,27 @@ def layout_material(data, base=0):
     return m
 
 
+# "Warped tables", Value steps 1 and 5: a half vector within this of the pole is the pole, and
+# the least cosine of the light's direction the tables divide by.
+WARP_POLE_HALF_XY = 1e-9
+WARP_HORIZON_COS = 1.0 / 64.0
+
+
+def warp_half_parameter(h):
+    """u = (u_x, u_y) of the half vector of h = ωi + ωo (Value step 1): (0, 1/2), the pole, when
+    √(h_x² + h_y²) ≤ 10⁻⁹ (the mirror direction, or opposite directions on the horizon);
+    otherwise from m = h/|h|, u_y reduced to [0, 1)."""
+    hxy = math.sqrt(h[0] * h[0] + h[1] * h[1])
+    if hxy <= WARP_POLE_HALF_XY:
+        return 0.0, 0.5
+    hn = math.sqrt(hxy * hxy + h[2] * h[2])
+    m = (h[0] / hn, h[1] / hn, h[2] / hn)
+    ux = math.sqrt(math.atan2(math.sqrt(m[0] * m[0] + m[1] * m[1]), m[2]) / (math.pi / 2))
+    uy = (math.atan2(m[1], m[0]) + math.pi) / (2 * math.pi)
+    uy -= math.floor(uy)
+    return ux, uy
+
+
 class LayoutWarp:
     """The warped-tables section of a flat device layout (GPU_LAYOUT.md, "Warped tables
     section", model section kind 2), evaluated as that section says: EVALUATION.md's "Warped
@@ -1612,26 +1628,19 @@ class LayoutWarp:
 
     def coefficients(self, wi, wo):
         """The K coefficients of ρ for unit wi (toward the light), wo (toward the viewer), z ≥ 0,
-        the tables following wo ("Whose direction the tables follow"); None where ρ is 0."""
+        the tables following wo ("Whose direction the tables follow"); None below the horizon."""
         r = math.sqrt(wo[0] * wo[0] + wo[1] * wo[1])
         c, s = (wo[0] / r, wo[1] / r) if r > 0 else (1.0, 0.0)
         theta = math.atan2(r, wo[2])
         a = (r, 0.0, wo[2])
         b = (c * wi[0] + s * wi[1], -s * wi[0] + c * wi[1], wi[2])
-        if b[2] <= 0:
+        if not b[2] >= 0:
             return None
-        h = (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-        hn = math.sqrt(dot(h, h))
-        if not hn > 0:
-            return None
-        m = (h[0] / hn, h[1] / hn, h[2] / hn)
-        ux = math.sqrt(math.atan2(math.sqrt(m[0] * m[0] + m[1] * m[1]), m[2]) / (math.pi / 2))
-        uy = (math.atan2(m[1], m[0]) + math.pi) / (2 * math.pi)
-        uy -= math.floor(uy)
+        ux, uy = warp_half_parameter((a[0] + b[0], a[1] + b[1], a[2] + b[2]))
         sl = self.slices(theta)
         sx, sy, _ = self.invert(sl, ux, uy)
         sigma = self.nodes(self.sigma, math.sqrt(max(theta, 0.0) / (math.pi / 2)))
-        f = self.nodes(self.ndf, ux) / (4 * sigma) / b[2]
+        f = self.nodes(self.ndf, ux) / (4 * sigma) / max(b[2], WARP_HORIZON_COS)
         ia, ib, t = sl
         out = []
         for k in range(self.k):

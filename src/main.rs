@@ -66,17 +66,23 @@ sbrdf decode m.sbrdf -o back.astm --astm   (ASTM E1392 text, with the source fil
     Decode(decode::DecodeArgs),
     /// Print the spectrum at one pair of directions as CSV `wavelength_nm,value`.
     #[command(
-        after_help = "Directions below the horizon (θ > 90) give 0. An incident direction that is not \
-stored is answered by interpolating the neighbouring records' parameters (isotropic files: \
-rotated to φi = 0 first); outside the stored θi range, the nearest stored θi is used.\n\n\
+        after_help = "Directions below the horizon (θ > 90) give 0. Files of records: an incident \
+direction that is not stored is answered by interpolating the neighbouring records' parameters \
+(isotropic files: rotated to φi = 0 first); outside the stored θi range, the nearest stored θi \
+is used. Files with warped tables (RGL measurements): the tables follow the viewing direction \
+(--outgoing), blended between the stored viewing angles and clamped to their range; the value \
+divides by the light's cos θi, at least 1/64 (89.1°), so it stays finite at the horizon; at the \
+mirror direction the half vector is the pole. Wavelengths outside the file's range are refused \
+here (a decoder evaluates them as the nearest end).\n\n\
 Example:\n  sbrdf eval m.sbrdf --incident 15,0 --outgoing 15,180 --wavelengths 450,550"
     )]
     Eval(inspect::EvalArgs),
     /// Write a file's flat device layout (spec/GPU_LAYOUT.md): 32-bit little-endian words for
     /// a GPU kernel to evaluate.
     #[command(
-        after_help = "Files with a factor model (FACT) or warped tables (WARP) are not covered by layout \
-version 1 and are refused.\n\nExample:\n  sbrdf layout m.sbrdf -o m.layout.bin"
+        after_help = "Every file is covered: records (layout version 1 and on), the sampling \
+section (2), a factor model (FACT, 3) and warped tables (WARP, 4).\n\nExample:\n  \
+sbrdf layout m.sbrdf -o m.layout.bin"
     )]
     Layout(layout::LayoutArgs),
     /// Describe a file: its settings, records and metadata.

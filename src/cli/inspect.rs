@@ -18,7 +18,7 @@ pub struct EvalArgs {
     #[arg(long, value_delimiter = ',', value_name = "λ1,λ2,...")]
     pub wavelengths: Option<Vec<f64>>,
     /// Evaluate the compact form a renderer holds (warped tables packed as the GPU layout
-    /// packs them, each value within 1/64 of its quantisation step) instead of the exact
+    /// packs them, each value within 1/256 of its quantisation step) instead of the exact
     /// binary64 values the specification defines. Files without warped tables give the same
     /// values either way.
     #[arg(long)]

@@ -431,6 +431,22 @@ pub fn band_order(r: usize) -> Vec<usize> {
     idx.into_iter().map(|(a, b)| a * r + b).collect()
 }
 
+/// Where the half vector h = ωi + ωo of a query is taken on the pole (`spec/EVALUATION.md`,
+/// "Warped tables", Value step 1): when √(h_x² + h_y²) is at most this, u = (0, 1/2) (θm = 0,
+/// φm = 0) whatever the rounding residue of h_x and h_y. At the mirror direction every φm names
+/// the same half vector while the tables' column s_x = 0 varies along u_y, so without the rule
+/// the value there was that of whatever azimuth atan2 returned for the residue (up to 9% apart
+/// between conforming decoders; issue 43). Binary64 residues of directions made from angles are
+/// ~10⁻¹⁶; a pair this close to the mirror is the mirror.
+pub const POLE_HALF_XY: f64 = 1e-9;
+
+/// The least cosine of the light's direction a warped table divides by (Value step 5): ρ =
+/// … / max(cos θ, 2⁻⁶). The measurement's ρ grows as 1/cos θ toward the horizon (ρ·cos θ stays
+/// finite); a decoder that returned 10¹³ at 90° set a trap for f32 sums, MIS weights and albedo
+/// integrals. Below 89.1° (cos θ > 2⁻⁶) nothing changes; beyond, ρ·cos θ falls linearly to 0 at
+/// the horizon. 2⁻⁶ is exact in binary32 and binary64.
+pub const HORIZON_COS: f64 = 1.0 / 64.0;
+
 /// Half vector parameter → unit half vector: θm = u_x²·π/2, φm = 2π·u_y − π.
 #[inline]
 pub fn half_vector(ux: f64, uy: f64) -> ([f64; 3], f64) {

@@ -107,12 +107,17 @@ def direction_pairs(f, rng):
         outs = [(ti, m), (min(ti + 2.0, 90.0), m - 3.0), (0.0, 0.0), (0.3, pi + 90.0),
                 (0.001, m), (90.0, m), (89.7, pi + 60.0), (89.99, pi), (45.0, pi + 270.0)]
         outs += [(rng.uniform(0, 90), rng.uniform(0, 360)) for _ in range(2)]
-        if f.warp is not None:
-            # Warped tables (EVALUATION.md, "Warped tables"): at the exact mirror direction and
-            # with both directions on the horizon the value is one of rounding; decoders that
-            # agree elsewhere may differ there, so those pairs are left out.
-            outs = [o for o in outs if not (o == (ti, m) or (ti >= 90.0 and o[0] >= 90.0))]
+        # The hard points of issue 43, compared like every other pair: the exact mirror
+        # direction (above), both directions on the pole, and θ of 89.9999° and 90° on either
+        # side and both (a warped table's half vector on the pole, its divisor at the horizon).
+        outs += [(89.9999, m), (89.9999, pi + 30.0), (90.0, pi + 150.0)]
         pairs += [((ti, pi), out) for out in outs]
+    for phi in (0.0, 47.0):
+        pairs += [((0.0, phi), (0.0, 0.0)), ((0.0, phi), (0.0, 200.0)), ((0.0, phi), (10.0, 30.0)),
+                  ((10.0, phi), (0.0, 75.0)), ((89.9999, phi), (89.9999, phi + 180.0)),
+                  ((90.0, phi), (90.0, phi + 180.0)), ((90.0, phi), (90.0, phi)),
+                  ((89.9999, phi), (90.0, phi + 180.0)), ((90.0, phi), (30.0, phi + 180.0)),
+                  ((30.0, phi), (90.0, phi + 180.0))]
     # outgoing directions below the horizon (θ > 90°) give 0 (sbrdf eval refuses θi > 90°)
     pairs += [((thetas[0], 0.0), (95.0, 180.0)), ((thetas[-1], 0.0), (180.0, 0.0))]
     return pairs

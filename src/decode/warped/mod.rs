@@ -44,7 +44,7 @@ pub(crate) use vndf::vndf_totals;
 /// ```
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Residency {
-    /// Packed to the precision the file stores (each table value within 1/64 of its
+    /// Packed to the precision the file stores (each table value within 1/256 of its
     /// quantisation step of the decoded value; the warps' quantities in f32): the form the GPU
     /// layout holds, 20–60 KiB for a 32 × 32 RGL measurement. What a renderer opens.
     #[default]

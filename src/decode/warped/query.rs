@@ -14,7 +14,7 @@ use super::source::{TableView, WarpSource};
 use super::vndf::{row_total, Column, Row};
 use crate::decode::lattice::QueryFrame;
 use crate::model::angles::azimuth_rotation;
-use crate::model::warped::{half_vector, jacobian, lerp_nodes};
+use crate::model::warped::{half_vector, jacobian, lerp_nodes, HORIZON_COS, POLE_HALF_XY};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// The share of cosine-weighted hemisphere sampling in the proposal (as for records): the
@@ -405,11 +405,12 @@ fn half_parameter(m: [f64; 3]) -> (f64, f64, f64) {
     (ux, uy, sin_m)
 }
 
-/// The blended table values v_k times D(u_x)/(4σ(θv))/cos θi: the spectral coefficients of ρ
-/// at unit vectors `wi` (toward the light), `wo` (toward the viewer), z ≥ 0, into `c` (K
-/// values). The tables are indexed by the viewing direction, as RGL files and Mitsuba's
-/// `measured` plugin index them (`spec/EVALUATION.md`, "Warped tables"): the roles of the two
-/// vectors are exchanged here. False (and `c` zero) where ρ is 0 (cos θi = 0, or ωi + ωo = 0).
+/// The blended table values v_k times D(u_x)/(4σ(θv))/max(cos θi, 2⁻⁶): the spectral
+/// coefficients of ρ at unit vectors `wi` (toward the light), `wo` (toward the viewer), z ≥ 0,
+/// into `c` (K values). The tables are indexed by the viewing direction, as RGL files and
+/// Mitsuba's `measured` plugin index them (`spec/EVALUATION.md`, "Warped tables"): the roles of
+/// the two vectors are exchanged here. A half vector within [`POLE_HALF_XY`] of the pole is the
+/// pole. False (and `c` zero) only for a non-finite input.
 #[inline]
 pub(crate) fn coefficients<S: WarpSource>(
     s: &S,
@@ -423,21 +424,28 @@ pub(crate) fn coefficients<S: WarpSource>(
     // The tables' own direction (the viewer's) first, the light's second.
     let (q, theta_i) = frame(wo);
     let (wi, wo) = (q.wi, q.in_frame(wi));
-    if wo[2] <= 0.0 {
+    // On the horizon (z = 0) evaluated normally; below it (only by a NaN's way) nothing.
+    if wo[2].is_nan() || wo[2] < 0.0 {
         return false;
     }
     let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
-    let len = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
-    if len.is_nan() || len <= 0.0 {
-        return false;
-    }
-    let m = [h[0] / len, h[1] / len, h[2] / len];
-    let (ux, uy, _) = half_parameter(m);
+    let h_xy = (h[0] * h[0] + h[1] * h[1]).sqrt();
+    // The mirror direction (and both directions opposite on the horizon, h = 0): the pole.
+    let (ux, uy) = if h_xy <= POLE_HALF_XY {
+        (0.0, 0.5)
+    } else {
+        let len = (h_xy * h_xy + h[2] * h[2]).sqrt();
+        if len.is_nan() {
+            return false;
+        }
+        let (ux, uy, _) = half_parameter([h[0] / len, h[1] / len, h[2] / len]);
+        (ux, uy)
+    };
     let sl = slices(s, theta_i);
     let (sx, sy, _) = vndf_invert(s, sl, ux, uy);
     let xi = (theta_i.max(0.0) / FRAC_PI_2).sqrt();
     let sigma = lerp_nodes(d.m, xi, |j| s.sigma(j));
-    let f = lerp_nodes(d.m, ux, |j| s.ndf(j)) / (4.0 * sigma) / wo[2];
+    let f = lerp_nodes(d.m, ux, |j| s.ndf(j)) / (4.0 * sigma) / wo[2].max(HORIZON_COS);
     let r = d.r;
     let (a, tx) = cell(sx, r);
     let (b, ty) = cell(sy, r);
