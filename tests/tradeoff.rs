@@ -255,3 +255,54 @@ fn encode_keeps_only_what_a_scene_needs() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("keeps none"));
 }
+
+/// Warped tables (RGL measurements) subset too (issue 39 found `--incident-max` and `--terms`
+/// refused as an invalid file): the kept viewing incidences keep their tables bit for bit, fewer
+/// terms are a truncation, and the bound is reported against the original, not stored.
+#[test]
+fn subset_of_warped_tables_keeps_what_it_keeps() {
+    let tmp = tempfile::tempdir().unwrap();
+    let src = common::samples_dir().join("golden/rgl_satin_warp_v15.sbrdf");
+    let orig = Decoder::open(&src).unwrap();
+    let size = std::fs::metadata(&src).unwrap().len();
+    let wl = [450.0, 550.0, 650.0];
+    let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
+    for (cut, name) in [
+        (&["--incident-max", "60"][..], "i.sbrdf"),
+        (&["--terms", "2"][..], "t.sbrdf"),
+    ] {
+        let mut args = vec!["subset", src.to_str().unwrap(), "-o", name];
+        args.extend_from_slice(cut);
+        let log = ok(&sbrdf(&args, tmp.path()));
+        assert!(log.contains("the bound is not stored"), "{log}");
+        let out = tmp.path().join(name);
+        assert!(
+            std::fs::metadata(&out).unwrap().len() < size,
+            "{cut:?}: not smaller"
+        );
+        let dec = Decoder::open(&out).unwrap();
+        let (m, o) = (dec.material(), orig.material());
+        let w = m.warped.as_ref().unwrap();
+        assert_eq!(w.steps.len(), m.records.len() * m.spectral.terms, "{cut:?}");
+        assert!(m.records.iter().all(|r| r.rel_error == 0.0));
+        if name == "i.sbrdf" {
+            // Viewing angles up to 60° kept: values there (the viewer at a kept incidence) are
+            // the original's to the bit.
+            assert!(m.records.len() < o.records.len());
+            assert!(m.records.iter().all(|r| r.theta_i <= 60.0));
+            for r in &m.records {
+                for light in [(10.0, 0.0), (35.0, 120.0), (70.0, 200.0)] {
+                    let view = (r.theta_i as f64, 0.0);
+                    orig.eval_deg(light, view, &wl, &mut a);
+                    dec.eval_deg(light, view, &wl, &mut b);
+                    assert_eq!(a, b, "light {light:?} view {view:?}");
+                }
+            }
+        } else {
+            assert_eq!(m.spectral.terms, 2);
+            assert_eq!(m.records.len(), o.records.len());
+            dec.eval_deg((30.0, 0.0), (30.0, 180.0), &wl, &mut b);
+            assert!(b.iter().all(|v| v.is_finite() && *v > 0.0), "{b:?}");
+        }
+    }
+}

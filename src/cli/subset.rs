@@ -63,10 +63,19 @@ pub fn cmd_subset(a: SubsetArgs) -> Result<()> {
     } else {
         "on a 5° grid (the file stores no sample positions)"
     };
-    eprintln!(
-        "sbrdf: error per incidence: recorded, change made by the cuts ({place}), and the \
-         upper bound now stored:"
-    );
+    if m.warped.is_some() {
+        // Warped tables record no error per incidence (their implied records hold +0): the
+        // bound is the change against the original file's own values, reported, not stored.
+        eprintln!(
+            "sbrdf: change per (viewing) incidence made by the cuts against the original \
+             file ({place}); warped tables store no error, so the bound is not stored:"
+        );
+    } else {
+        eprintln!(
+            "sbrdf: error per incidence: recorded, change made by the cuts ({place}), and the \
+             upper bound now stored:"
+        );
+    }
     for r in &report.records {
         eprintln!(
             "  ({}, {}): recorded {:.5}, change {:.5}, bound {:.5}",

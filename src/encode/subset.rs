@@ -90,6 +90,18 @@ pub fn subset(original: &Material, o: &SubsetOptions) -> Result<(Material, Subse
         }
         let dropped = m.records.len() - kept.len();
         m.records = kept.iter().map(|&i| original.records[i].clone()).collect();
+        if let Some(w) = &mut m.warped {
+            // Warped tables: each kept (viewing) incidence keeps its K steps and K tables.
+            let (k, rr) = (m.spectral.terms, w.grid * w.grid);
+            w.steps = kept
+                .iter()
+                .flat_map(|&i| w.steps[i * k..(i + 1) * k].to_vec())
+                .collect();
+            w.levels = kept
+                .iter()
+                .flat_map(|&i| w.levels[i * k * rr..(i + 1) * k * rr].to_vec())
+                .collect();
+        }
         if let Some(sp) = &mut m.sample_positions {
             let used: Vec<u32> = kept.iter().map(|&i| sp.set_of_incidence[i]).collect();
             let mut sets = Vec::new();
@@ -251,16 +263,27 @@ pub fn subset(original: &Material, o: &SubsetOptions) -> Result<(Material, Subse
             None => grid.directions(),
         };
         let inc = (r.theta_i as f64, r.phi_i as f64);
+        // Warped tables are stored per viewing direction: the stored incidence is the query's
+        // outgoing one there, the grid the light's.
+        let warped = original.warped.is_some();
+        let pair = |d: &[f64; 2]| {
+            if warped {
+                ((d[0], d[1]), inc)
+            } else {
+                (inc, (d[0], d[1]))
+            }
+        };
         // D = |new − old| and Rs = |old| at the kept wavelengths, R = |old| at all of them.
         let (mut d2, mut rs2, mut r2) = (0.0, 0.0, 0.0);
         for d in &dirs {
-            before.eval_deg(inc, (d[0], d[1]), &wl, &mut a);
-            after.eval_deg(inc, (d[0], d[1]), &wl, &mut b);
+            let (qi, qo) = pair(d);
+            before.eval_deg(qi, qo, &wl, &mut a);
+            after.eval_deg(qi, qo, &wl, &mut b);
             for (x, y) in a.iter().zip(&b) {
                 d2 += (x - y) * (x - y);
                 rs2 += x * x;
             }
-            before.eval_deg(inc, (d[0], d[1]), &wl_all, &mut full);
+            before.eval_deg(qi, qo, &wl_all, &mut full);
             r2 += full.iter().map(|v| v * v).sum::<f64>();
         }
         let (d, rs, rr) = (d2.sqrt(), rs2.sqrt(), r2.sqrt());
@@ -302,7 +325,11 @@ pub fn subset(original: &Material, o: &SubsetOptions) -> Result<(Material, Subse
         if !bound.is_finite() {
             bound = f32::MAX;
         }
-        m.records[new_i].rel_error = bound;
+        // A warped file's implied records hold no error (FORMAT.md §3.10: rel_error +0); its
+        // bound is reported only, against the original reconstruction (e = 0 there).
+        if !warped {
+            m.records[new_i].rel_error = bound;
+        }
         records.push(RecordChange {
             theta_i: r.theta_i,
             phi_i: r.phi_i,
@@ -327,6 +354,17 @@ pub fn subset(original: &Material, o: &SubsetOptions) -> Result<(Material, Subse
 fn truncate_terms(m: &mut Material, t: usize) {
     if let Some(table) = &mut m.spectral.table {
         table.values.truncate(t * table.nodes.len());
+    }
+    let k = m.spectral.terms;
+    if let Some(w) = &mut m.warped {
+        // Warped tables: each incidence keeps its first t steps and tables (incidence-major).
+        let (n, rr) = (m.records.len(), w.grid * w.grid);
+        w.steps = (0..n)
+            .flat_map(|i| w.steps[i * k..i * k + t].to_vec())
+            .collect();
+        w.levels = (0..n)
+            .flat_map(|i| w.levels[i * k * rr..(i * k + t) * rr].to_vec())
+            .collect();
     }
     m.spectral.terms = t;
     for r in &mut m.records {
