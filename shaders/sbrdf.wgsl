@@ -1453,11 +1453,12 @@ fn sbrdf_fact_features(m: u32, ui: vec3<f32>, uo: vec3<f32>) -> SbrdfFeatures {
     let ro = length(uo.xy);
     let mv = ui + uo;
     let mh = length(mv.xy);
-    let ok = mh > 0.0 || mv.z > 0.0;
-    let th = select(90.0, sbrdf_atan2_deg(mh, mv.z), ok);
-    let td = select(90.0, sbrdf_atan2_deg(length(cross(ui, uo)), 1.0 + dot(ui, uo)), ok);
     let ti = sbrdf_atan2_deg(ri, ui.z);
     let to = sbrdf_atan2_deg(ro, uo.z);
+    // The mirror direction (and m = 0, opposite on the horizon): the half vector is the pole.
+    let pole = mh <= SBRDF_WARP_POLE_XY;
+    let th = select(sbrdf_atan2_deg(mh, mv.z), 0.0, pole);
+    let td = select(sbrdf_atan2_deg(length(cross(ui, uo)), 1.0 + dot(ui, uo)), ti, pole);
     let x = select(uo.x, (ui.x * uo.x + ui.y * uo.y) / ri, ri > 0.0);
     let rg = m + SBRDF_FACT_RANGES; // (min, max) of theta_h, theta_d, theta_i, theta_o, then x
     let lo = vec4<f32>(sbrdf_f(rg), sbrdf_f(rg + 2u), sbrdf_f(rg + 4u), sbrdf_f(rg + 6u));
@@ -1854,12 +1855,12 @@ fn sbrdf_warp_nodes(o: u32, m: u32, x: f32) -> f32 {
 // the light's direction the tables divide by (EVALUATION.md, "Warped tables", Value steps 1
 // and 5; src/model/warped.rs POLE_HALF_XY, HORIZON_COS).
 const SBRDF_WARP_POLE_XY: f32 = 1e-9;
-const SBRDF_WARP_HORIZON_COS: f32 = 0.015625;
+const SBRDF_WARP_HORIZON_COS: f32 = 0.0009765625;
 
 // What an evaluation at unit ui, uo (above the horizon) reads of the tables, into the query's
 // record fields (a warped query blends no records): rec[0], rec[1] the slices, w[0] the upper
 // one's weight; rec[2] the first node of the tables' cell (the upper row's is rec[2] + R), w[1],
-// w[2] the position in the cell; w[3] = D(u_x) / (4 sigma) / max(cos theta_i, 2^-6) (0: none).
+// w[2] the position in the cell; w[3] = D(u_x) / (4 sigma) / max(cos theta_i, 2^-10) (0: none).
 // The tables follow the viewer's direction uo: in the tables' frame the roles of the two
 // directions are exchanged.
 fn sbrdf_warp_query(w: u32, ui: vec3<f32>, uo: vec3<f32>, q: ptr<function, SbrdfQuery>) {

@@ -365,7 +365,10 @@ def fact_features(wi, wo, ranges):
     wo2 = (c * xo + s * yo, -s * xo + c * yo, zo)
     m = (wi2[0] + wo2[0], wi2[1] + wo2[1], wi2[2] + wo2[2])
     mn = math.sqrt(dot(m, m))
-    if mn > 0:
+    if math.sqrt(m[0] * m[0] + m[1] * m[1]) <= WARP_POLE_HALF_XY:
+        # the mirror direction (m = 0 too): the half vector is the pole
+        theta_h, theta_d = 0.0, math.degrees(math.atan2(ri, zi))
+    elif mn > 0:
         h = (m[0] / mn, m[1] / mn, m[2] / mn)
         theta_h = math.degrees(math.atan2(math.sqrt(h[0] * h[0] + h[1] * h[1]), h[2]))
         cx = (wi2[1] * h[2] - wi2[2] * h[1], wi2[2] * h[0] - wi2[0] * h[2],
@@ -1483,7 +1486,7 @@ def layout_material(data, base=0):
 # "Warped tables", Value steps 1 and 5: a half vector within this of the pole is the pole, and
 # the least cosine of the light's direction the tables divide by.
 WARP_POLE_HALF_XY = 1e-9
-WARP_HORIZON_COS = 1.0 / 64.0
+WARP_HORIZON_COS = 1.0 / 1024.0
 
 
 def warp_half_parameter(h):

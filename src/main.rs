@@ -71,7 +71,7 @@ direction that is not stored is answered by interpolating the neighbouring recor
 (isotropic files: rotated to φi = 0 first); outside the stored θi range, the nearest stored θi \
 is used. Files with warped tables (RGL measurements): the tables follow the viewing direction \
 (--outgoing), blended between the stored viewing angles and clamped to their range; the value \
-divides by the light's cos θi, at least 1/64 (89.1°), so it stays finite at the horizon; at the \
+divides by the light's cos θi, at least 1/1024 (89.94°), so it stays finite at the horizon; at the \
 mirror direction the half vector is the pole. Wavelengths outside the file's range are refused \
 here (a decoder evaluates them as the nearest end).\n\n\
 Example:\n  sbrdf eval m.sbrdf --incident 15,0 --outgoing 15,180 --wavelengths 450,550"

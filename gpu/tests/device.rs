@@ -187,11 +187,26 @@ fn eval_matches_cpu_on_every_covered_sample() {
     for (mi, mat) in mats.iter().enumerate() {
         let mut rng = Rng(0x5B2D_F000 + mi as u64);
         let wl = wavelengths(&mat.layout, &mut rng);
-        let pairs: Vec<([f32; 3], [f32; 3])> = (0..PAIRS)
+        let mut pairs: Vec<([f32; 3], [f32; 3])> = (0..PAIRS)
             .map(|_| (direction(&mut rng), direction(&mut rng)))
             .collect();
-        let mut queries = Vec::with_capacity(PAIRS * WAVELENGTHS);
-        let mut cpu = vec![0.0f32; PAIRS * WAVELENGTHS];
+        // The singular points (issue 43): exact mirror pairs (a warped table's half vector on the
+        // pole), both directions on the pole, and directions exactly on the horizon.
+        for _ in 0..HARD_PAIRS {
+            let w = direction(&mut rng);
+            let flat = {
+                let r = (w[0] * w[0] + w[1] * w[1]).sqrt().max(f32::MIN_POSITIVE);
+                [w[0] / r, w[1] / r, 0.0]
+            };
+            pairs.push((w, [-w[0], -w[1], w[2]]));
+            pairs.push(([0.0, 0.0, 1.0], w));
+            pairs.push((flat, w));
+            pairs.push((w, flat));
+            pairs.push((flat, [-flat[0], -flat[1], 0.0]));
+        }
+        pairs.push(([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]));
+        let mut queries = Vec::with_capacity(pairs.len() * WAVELENGTHS);
+        let mut cpu = vec![0.0f32; pairs.len() * WAVELENGTHS];
         for (p, &(wi, wo)) in pairs.iter().enumerate() {
             mat.decoder.eval(
                 wi,
@@ -259,7 +274,7 @@ fn eval_matches_cpu_on_every_covered_sample() {
              {} over; rgb {} pairs, worst {:.3}, {} over",
             mat.name,
             buf.bases[mi],
-            PAIRS,
+            pairs.len(),
             WAVELENGTHS,
             worst.ratio,
             worst.failures,
@@ -405,6 +420,10 @@ fn edge_directions_are_finite_and_zero_like_the_cpu() {
 
 mod sampling;
 use sampling::{angle, bin_of, chi2, hemisphere, SAMPLING_ENTRY_POINTS};
+
+/// Random directions per file from which the evaluation test makes its pairs at the singular
+/// points (five pairs each: the mirror, the pole, the horizon either side and both).
+const HARD_PAIRS: usize = 200;
 
 /// Direction pairs per file for the pdf comparison, and (wi, u) pairs for the sample comparison.
 const PDF_PAIRS: usize = 20_000;

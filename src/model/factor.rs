@@ -15,6 +15,7 @@
 //! and x = sin θo·cos(φo − φi), which tells the side of the source from the mirror side. The
 //! model is isotropic.
 
+use crate::model::warped::POLE_HALF_XY;
 use crate::model::Precision;
 
 /// The angle features a table can be over. Codes are the format's (`FORMAT.md`, §4).
@@ -197,7 +198,13 @@ impl FeatureValues {
         let (wi, wo) = ([ri, 0.0, wi[2]], [wox, woy, wo[2]]);
         let sum = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
         let n = (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]).sqrt();
-        let (h_deg, d_deg) = if n > 0.0 {
+        let polar = |z: f64, r: f64| r.atan2(z).to_degrees();
+        // The mirror direction (and both directions opposite on the horizon, m = 0): the half
+        // vector is the pole, θh = 0 and θd = θi, whatever the rounding residue of m's
+        // horizontal part (the warped tables' rule, `POLE_HALF_XY`; issue 43).
+        let (h_deg, d_deg) = if (sum[0] * sum[0] + sum[1] * sum[1]).sqrt() <= POLE_HALF_XY {
+            (0.0, polar(wi[2], ri))
+        } else if n > 0.0 {
             let hv = [sum[0] / n, sum[1] / n, sum[2] / n];
             let h = (hv[0] * hv[0] + hv[1] * hv[1])
                 .sqrt()
@@ -214,7 +221,6 @@ impl FeatureValues {
         } else {
             (90.0, 90.0)
         };
-        let polar = |z: f64, r: f64| r.atan2(z).to_degrees();
         FeatureValues {
             h: h_deg,
             d: d_deg,
@@ -468,6 +474,24 @@ mod tests {
         let f = FeatureValues::of(dir_from_deg(50.0, 10.0), dir_from_deg(50.0, 10.0));
         assert!((f.h - 50.0).abs() < 1e-9 && f.d.abs() < 1e-6);
         assert!((f.x - 50f64.to_radians().sin()).abs() < 1e-12);
+    }
+
+    /// The mirror direction is the pole exactly (issue 43): θh = 0 and θd = θi whatever the
+    /// residue, and two directions opposite on the horizon (m = 0) are its limit (θh = 0,
+    /// θd = 90°), not θh = θd = 90° (which the GPU and the CPU reached by different roundings).
+    #[test]
+    fn the_mirror_direction_is_the_pole() {
+        for (t, p) in [(30.0, 40.0), (89.9999, 123.0), (90.0, 77.0), (0.0, 0.0)] {
+            let f = FeatureValues::of(dir_from_deg(t, p), dir_from_deg(t, p + 180.0));
+            assert_eq!(f.h, 0.0, "{t}° {p}°");
+            assert_eq!(f.d, f.i, "{t}° {p}°");
+        }
+        let (a, b) = ([0.8, -0.6, 0.0], [-0.8, 0.6, 0.0]);
+        let f = FeatureValues::of(a, b);
+        assert_eq!((f.h, f.d, f.i, f.o), (0.0, 90.0, 90.0, 90.0));
+        // Just off the mirror, the ordinary formula.
+        let f = FeatureValues::of(dir_from_deg(30.0, 40.0), dir_from_deg(30.0, 221.0));
+        assert!(f.h > 0.1 && f.h < 1.0, "{}", f.h);
     }
 
     #[test]

@@ -441,11 +441,11 @@ pub fn band_order(r: usize) -> Vec<usize> {
 pub const POLE_HALF_XY: f64 = 1e-9;
 
 /// The least cosine of the light's direction a warped table divides by (Value step 5): ρ =
-/// … / max(cos θ, 2⁻⁶). The measurement's ρ grows as 1/cos θ toward the horizon (ρ·cos θ stays
+/// … / max(cos θ, 2⁻¹⁰). The measurement's ρ grows as 1/cos θ toward the horizon (ρ·cos θ stays
 /// finite); a decoder that returned 10¹³ at 90° set a trap for f32 sums, MIS weights and albedo
-/// integrals. Below 89.1° (cos θ > 2⁻⁶) nothing changes; beyond, ρ·cos θ falls linearly to 0 at
-/// the horizon. 2⁻⁶ is exact in binary32 and binary64.
-pub const HORIZON_COS: f64 = 1.0 / 64.0;
+/// integrals. Below 89.94° (cos θ > 2⁻¹⁰) nothing changes; beyond, ρ·cos θ falls linearly to 0 at
+/// the horizon. 2⁻¹⁰ is exact in binary32 and binary64.
+pub const HORIZON_COS: f64 = 1.0 / 1024.0;
 
 /// Half vector parameter → unit half vector: θm = u_x²·π/2, φm = 2π·u_y − π.
 #[inline]

@@ -405,7 +405,7 @@ fn half_parameter(m: [f64; 3]) -> (f64, f64, f64) {
     (ux, uy, sin_m)
 }
 
-/// The blended table values v_k times D(u_x)/(4σ(θv))/max(cos θi, 2⁻⁶): the spectral
+/// The blended table values v_k times D(u_x)/(4σ(θv))/max(cos θi, 2⁻¹⁰): the spectral
 /// coefficients of ρ at unit vectors `wi` (toward the light), `wo` (toward the viewer), z ≥ 0,
 /// into `c` (K values). The tables are indexed by the viewing direction, as RGL files and
 /// Mitsuba's `measured` plugin index them (`spec/EVALUATION.md`, "Warped tables"): the roles of
