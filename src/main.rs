@@ -141,7 +141,9 @@ in a fixed random order, every k-th held out in turn from every incidence at onc
 pooled. left out: encoded without that incidence, decoded at all of its samples. rel = \
 sqrt(Σ(ρ̂ − ρ)²/Σρ²): predicting 0 scores 1, above 1 a model invents energy. log = RMS of \
 ln((ρ̂ + ε)/(ρ + ε)), ε = 1% of the median spectral mean: every value weighs alike, where rel is \
-dominated by the brightest samples.\n\n\
+dominated by the brightest samples. nn: the same figures for the nearest sample the encode was \
+given (no model), on the same held-out values: a file above them does worse than the \
+measurement itself.\n\n\
 Examples:\n  \
 sbrdf validate material.csv --leave-incidence-out\n  \
 sbrdf validate ptfe.csv --folds 10 --max-error 1%"

@@ -46,6 +46,17 @@ fn held_out_errors_follow_the_protocol() {
     // 30° left out lies between 20° and 40°: interpolated; 20° and 40° are extrapolated.
     let mid = r.incidences[1].left_out.unwrap();
     assert!(mid.rel() < 0.1, "30° left out: {}", mid.rel());
+    // The nearest-sample baseline on the same values: every value once; on a paper grid 10° ×
+    // 15° a broad lobe moves between neighbours, so a model the families hold beats it.
+    let (nf, nl) = (r.nearest_folds.unwrap(), r.nearest_left_out.unwrap());
+    assert_eq!((nf.count, nl.count), (n, n));
+    assert!(
+        folds.rel() < nf.rel(),
+        "{} vs nearest {}",
+        folds.rel(),
+        nf.rel()
+    );
+    assert!(mid.rel() < r.incidences[1].nearest_left_out.unwrap().rel());
     assert!(r.epsilon > 0.0 && r.bytes > 0);
     let d = r.dense.unwrap();
     assert_eq!(d.values, 19 * 36 * 72 * 16);
@@ -90,6 +101,8 @@ fn validate_runs_through_the_program() {
         ("fit", Some(lib.fit), 0.01),
         ("folds_error", lib.folds, 0.05),
         ("left_out", lib.left_out, f64::INFINITY),
+        ("nearest_folds", lib.nearest_folds, f64::INFINITY),
+        ("nearest_left_out", lib.nearest_left_out, f64::INFINITY),
     ];
     for (key, sums, most) in sums {
         let want = sums.unwrap().rel();

@@ -78,6 +78,8 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
                     "theta_i": i.theta_i, "phi_i": i.phi_i, "samples": i.samples,
                     "fit": json(Some(&i.fit)), "folds": json(i.folds.as_ref()),
                     "left_out": json(i.left_out.as_ref()),
+                    "nearest_folds": json(i.nearest_folds.as_ref()),
+                    "nearest_left_out": json(i.nearest_left_out.as_ref()),
                 })
             })
             .collect();
@@ -86,6 +88,8 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
             "bytes_without_positions": r.bytes, "raw_f32_bytes": set.raw_f32_bytes(),
             "fit": json(Some(&r.fit)), "folds_error": json(r.folds.as_ref()),
             "left_out": json(r.left_out.as_ref()), "incidences": rows,
+            "nearest_folds": json(r.nearest_folds.as_ref()),
+            "nearest_left_out": json(r.nearest_left_out.as_ref()),
             "dense_grid": r.dense.map(|d| serde_json::json!({
                 "values": d.values, "negative": d.negative, "minimum": d.minimum,
                 "not_finite": d.not_finite,
@@ -110,7 +114,7 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
         "folds".into()
     };
     println!(
-        "{:>9} {:>9} {:>8} | {:>9} {:>8} | {:>9} {:>8} | {:>9} {:>8}",
+        "{:>9} {:>9} {:>8} | {:>9} {:>8} | {:>9} {:>8} | {:>9} {:>8} | {:>9} {:>8} | {:>9} {:>8}",
         "θi",
         "φi",
         "samples",
@@ -119,21 +123,27 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
         format!("{k} rel"),
         "log",
         "left out",
+        "log",
+        format!("nn {k}"),
+        "log",
+        "nn out",
         "log"
     );
     for i in &r.incidences {
         println!(
-            "{:>9.3} {:>9.3} {:>8} | {} | {} | {}",
+            "{:>9.3} {:>9.3} {:>8} | {} | {} | {} | {} | {}",
             i.theta_i,
             i.phi_i,
             i.samples,
             cell(Some(&i.fit)),
             cell(i.folds.as_ref()),
-            cell(i.left_out.as_ref())
+            cell(i.left_out.as_ref()),
+            cell(i.nearest_folds.as_ref()),
+            cell(i.nearest_left_out.as_ref())
         );
     }
     println!(
-        "{:>19} {:>8} | {} | {} | {}",
+        "{:>19} {:>8} | {} | {} | {} | {} | {}",
         "overall",
         set.incidences
             .iter()
@@ -141,7 +151,14 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
             .sum::<usize>(),
         cell(Some(&r.fit)),
         cell(r.folds.as_ref()),
-        cell(r.left_out.as_ref())
+        cell(r.left_out.as_ref()),
+        cell(r.nearest_folds.as_ref()),
+        cell(r.nearest_left_out.as_ref())
+    );
+    println!(
+        "nn: the nearest sample's error on the same held-out values (each predicted by the \
+         nearest sample the encode was given, no model): a model above it does worse than the \
+         measurement itself"
     );
     if let Some(d) = r.dense {
         println!(

@@ -133,20 +133,7 @@ pub fn k_fold(
     eps: f64,
 ) -> Result<Vec<ErrorSums>> {
     let wl = &set.wavelengths;
-    let orders: Vec<Vec<usize>> = set
-        .incidences
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            // rank[d]: the position of direction d in the incidence's shuffled order.
-            let order = fold_order(s.directions.len(), i + salt);
-            let mut rank = vec![0; order.len()];
-            for (pos, &d) in order.iter().enumerate() {
-                rank[d] = pos;
-            }
-            rank
-        })
-        .collect();
+    let orders = fold_ranks(set, salt);
     let mut sums = vec![ErrorSums::default(); set.incidences.len()];
     for f in 0..k {
         let held = |i: usize, d: usize| orders[i][d] % k == f;
@@ -176,6 +163,23 @@ pub fn k_fold(
         }
     }
     Ok(sums)
+}
+
+/// Per incidence i, rank[d]: the position of direction d in the incidence's shuffled order
+/// ([`fold_order`] seeded with i + `salt`); fold f of k holds out the d with rank[d] mod k = f.
+pub(crate) fn fold_ranks(set: &SampleSet, salt: usize) -> Vec<Vec<usize>> {
+    set.incidences
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let order = fold_order(s.directions.len(), i + salt);
+            let mut rank = vec![0; order.len()];
+            for (pos, &d) in order.iter().enumerate() {
+                rank[d] = pos;
+            }
+            rank
+        })
+        .collect()
 }
 
 /// The samples of `s` at the directions `keep` (indices, increasing).

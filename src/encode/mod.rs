@@ -9,6 +9,7 @@ pub mod factor_model;
 pub mod fit;
 pub mod info;
 pub mod metrics;
+pub mod nearest;
 pub mod options;
 pub mod samples;
 pub mod settings;

@@ -11,12 +11,15 @@
 //! sqrt(Σ(ρ̂ − ρ)² / Σρ²), and log, the RMS over values of ln((ρ̂ + ε)/(max(ρ, 0) + ε)) with ε = 1%
 //! of the material's median spectral-mean value. On sparse peaky data one near-mirror sample can
 //! hold most of Σρ², so rel alone measures that sample; log weighs every value alike, and
-//! predicting zero everywhere scores rel = 1 (above 1 a model invents energy).
+//! predicting zero everywhere scores rel = 1 (above 1 a model invents energy). Beside each
+//! held-out figure, the nearest sample's on the same held-out values ([`crate::encode::nearest`]):
+//! a model above it does worse than handing out the measurement.
 
 use crate::decode::Decoder;
 use crate::encode::encoder::{encode, EncodeOptions};
 use crate::encode::metrics::score;
 pub use crate::encode::metrics::{fold_order, k_fold, log_epsilon, ErrorSums};
+use crate::encode::nearest::{nearest_k_fold, nearest_left_out};
 use crate::encode::samples::SampleSet;
 use crate::error::{Error, Result};
 use rayon::prelude::*;
@@ -124,6 +127,11 @@ pub struct IncidenceReport {
     /// The error at all its samples when this incidence is left out of the encode (None when
     /// not measured).
     pub left_out: Option<ErrorSums>,
+    /// The nearest sample's error on the same folds ([`crate::encode::nearest`]): the baseline
+    /// the model must beat (None without folds).
+    pub nearest_folds: Option<ErrorSums>,
+    /// The nearest sample's error with this incidence left out (None when not measured).
+    pub nearest_left_out: Option<ErrorSums>,
 }
 
 /// Everything `validate` measures.
@@ -142,6 +150,10 @@ pub struct ValidationReport {
     /// The leave-one-incidence-out error pooled over the incidences left out (None when none
     /// was).
     pub left_out: Option<ErrorSums>,
+    /// The nearest sample's k-fold error pooled over every incidence (None without folds).
+    pub nearest_folds: Option<ErrorSums>,
+    /// The nearest sample's leave-one-incidence-out error, pooled as `left_out`.
+    pub nearest_left_out: Option<ErrorSums>,
     /// The dense-grid count, when asked for ([`ValidateOptions::dense_grid`]).
     pub dense: Option<DenseGrid>,
 }
@@ -185,6 +197,8 @@ pub fn validate(
             fit: score(&dec, s, wl, eps, |_| true),
             folds: None,
             left_out: None,
+            nearest_folds: None,
+            nearest_left_out: None,
         })
         .collect();
     if v.folds >= 2 {
@@ -195,8 +209,10 @@ pub fn validate(
             0,
             eps,
         )?;
-        for (r, s) in incidences.iter_mut().zip(sums) {
+        let nearest = nearest_k_fold(set, v.folds, 0, eps);
+        for ((r, s), n) in incidences.iter_mut().zip(sums).zip(nearest) {
             r.folds = Some(s);
+            r.nearest_folds = Some(n);
         }
     }
     if v.leave_incidence_out {
@@ -230,6 +246,7 @@ pub fn validate(
                 ))
             })?;
             incidences[x].left_out = Some(score(&dec, s, wl, eps, |_| true));
+            incidences[x].nearest_left_out = Some(nearest_left_out(set, x, eps));
         }
     }
     // Pooled over the incidences that have the figure (all of them, but for a partial
@@ -247,6 +264,8 @@ pub fn validate(
         fit: pool(&|r| Some(r.fit)).unwrap_or_default(),
         folds: pool(&|r| r.folds),
         left_out: pool(&|r| r.left_out),
+        nearest_folds: pool(&|r| r.nearest_folds),
+        nearest_left_out: pool(&|r| r.nearest_left_out),
         dense,
         incidences,
     })
