@@ -62,4 +62,7 @@ def encode(
     """Encodes samples (a dict of the long CSV layout's columns theta_i, phi_i, theta_o, phi_o,
     wavelength_nm, value; or CSV/EXR/RGL paths) into `out_path`, with `sbrdf encode`'s options
     as keywords (max_error=0.01, basis="cosine", rgb_to_spectrum="jakob-hanika-2019", ...).
-    Returns bytes, rel_error, worst_error, messages."""
+    Returns bytes, rel_error, worst_error, messages. One RGL file is encoded as `sbrdf encode`
+    encodes it, byte for byte (warped tables by default; model="warped" requires them,
+    transform="dct"|"wavelet"|"auto" picks their transform); rel_error and worst_error are then
+    the worst stored incidence's error."""

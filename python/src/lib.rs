@@ -379,6 +379,24 @@ fn encode(
                 Error::new_err("samples: expected a dict of arrays, a path or a list of paths")
             })?
         };
+        // One RGL file: warped tables, as `sbrdf encode` writes them (the same library call).
+        let warped = py
+            .allow_threads(|| -> sbrdf::Result<_> {
+                let Some(o) = sbrdf::io::rgl::encode_warped_file(&paths, &settings)? else {
+                    return Ok(None);
+                };
+                sbrdf::io::output::write_bytes_atomic(&out_path, &o.bytes)?;
+                Ok(Some(o))
+            })
+            .map_err(err)?;
+        if let Some(o) = warped {
+            let d = PyDict::new(py);
+            d.set_item("bytes", o.bytes.len())?;
+            d.set_item("rel_error", o.worst_error())?;
+            d.set_item("worst_error", o.worst_error())?;
+            d.set_item("messages", o.messages)?;
+            return Ok(d.into_any().unbind());
+        }
         let (set, report) = py
             .allow_threads(|| sbrdf::io::read_inputs_with(&paths, &settings.read))
             .map_err(err)?;

@@ -3,9 +3,10 @@
 
 use clap::{Args, ValueEnum};
 use sbrdf::encode::fit::{LobeFamily, PeakMode};
-use sbrdf::encode::settings::{self, EncodeSettings};
+use sbrdf::encode::settings::{self, EncodeSettings, WarpedChoice};
 use sbrdf::encode::{EncodeOptions, ModelChoice};
 use sbrdf::io::output::write_bytes_atomic;
+use sbrdf::model::warped::TableTransform;
 use sbrdf::{Precision, Result, SpectralBasis};
 use std::path::PathBuf;
 
@@ -63,6 +64,16 @@ pub enum ModelArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+pub enum TransformArg {
+    /// Whichever gives the smaller file.
+    Auto,
+    /// Orthonormal DCT-II (format 1.4).
+    Dct,
+    /// CDF 5/3 wavelet (format 1.5).
+    Wavelet,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 pub enum PrecisionArg {
     F32,
     F16,
@@ -89,6 +100,11 @@ pub struct EncodeOptionArgs {
     /// Which model the file holds.
     #[arg(long, value_enum, default_value = "auto")]
     pub model: ModelArg,
+    /// Warped tables' transform (one RGL file): `dct` (format 1.4, smooth tables), `wavelet`
+    /// (1.5, local features such as a one-column spike) or `auto`, whichever gives the smaller
+    /// file.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub transform: TransformArg,
     /// Spectral basis.
     #[arg(long, value_enum, default_value = "data")]
     pub basis: BasisArg,
@@ -208,7 +224,7 @@ impl EncodeOptionArgs {
                 ModelArg::Auto => ModelChoice::Auto,
                 ModelArg::Records => ModelChoice::Records,
                 ModelArg::Shared => ModelChoice::Shared,
-                // Handled before the sample-based encoder (`warped_encode`).
+                // Handled before the sample-based encoder (`encode_warped_file`).
                 ModelArg::Warped => ModelChoice::Auto,
             },
             // Resolved by EncodeSettings::options.
@@ -235,6 +251,16 @@ impl EncodeOptionArgs {
                     .map(settings::parse_rgb_to_spectrum)
                     .transpose()?,
             },
+            warped: match a.model {
+                ModelArg::Auto => WarpedChoice::Auto,
+                ModelArg::Warped => WarpedChoice::Required,
+                ModelArg::Records | ModelArg::Shared => WarpedChoice::Never,
+            },
+            transform: match a.transform {
+                TransformArg::Auto => None,
+                TransformArg::Dct => Some(TableTransform::Dct),
+                TransformArg::Wavelet => Some(TableTransform::Wavelet53),
+            },
         };
         Ok(settings)
     }
@@ -242,14 +268,7 @@ impl EncodeOptionArgs {
 
 pub fn cmd_encode(a: EncodeArgs) -> Result<()> {
     let settings = a.options.settings()?;
-    let warped = super::encode_warped::WarpedRequest {
-        inputs: &a.inputs,
-        output: &a.output,
-        asked: matches!(a.options.model, ModelArg::Warped),
-        auto: matches!(a.options.model, ModelArg::Auto),
-        terms: a.options.terms,
-    };
-    if super::encode_warped::try_encode(&warped, &settings)? {
+    if super::encode_warped::try_encode(&a.inputs, &a.output, &settings)? {
         return Ok(());
     }
     let (set, report) = sbrdf::io::read_inputs_with(&a.inputs, &settings.read)?;

@@ -8,6 +8,7 @@ use crate::encode::fit::{CriticalAngle, PeakMode};
 use crate::encode::samples::{ReadOptions, ReadReport, RgbToSpectrum, SampleSet};
 use crate::error::{Error, Result};
 use crate::model::spectral::SpectralBasis;
+use crate::model::warped::TableTransform;
 use crate::model::Precision;
 
 /// `sbrdf encode`'s options: the encoder's own ([`EncodeOptions`], whose `provenance` holds the
@@ -30,11 +31,29 @@ pub struct EncodeSettings {
     /// How the inputs are read (`--rgb-to-spectrum`): for the caller's reader, which runs
     /// before [`encode_samples`].
     pub read: ReadOptions,
+    /// Whether one RGL file is kept on its warped grid (`--model warped`: required; `auto`:
+    /// where it suits; `records`, `shared`: never): [`crate::encode::warped_file`].
+    pub warped: WarpedChoice,
+    /// `--transform`: the warped tables' transform (`None`, `auto`: the smaller file).
+    pub transform: Option<TableTransform>,
+}
+
+/// When an input is encoded as warped tables (`--model`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum WarpedChoice {
+    /// `--model auto`: one isotropic RGL file without options warped tables do not take.
+    #[default]
+    Auto,
+    /// `--model warped`: warped tables, or an error saying why not.
+    Required,
+    /// `--model records` or `shared`: never.
+    Never,
 }
 
 /// The option names `EncodeSettings::set` knows, as the command line spells them.
-pub const NAMES: [&str; 17] = [
+pub const NAMES: [&str; 18] = [
     "model",
+    "transform",
     "basis",
     "terms",
     "sh-level",
@@ -103,13 +122,25 @@ pub fn parse_basis(s: &str) -> Result<SpectralBasis> {
     }
 }
 
-/// `--model`: `auto`, `records` or `shared`.
-pub fn parse_model(s: &str) -> Result<ModelChoice> {
+/// `--model`: `auto`, `records`, `shared` or `warped` (which the sample-based encoder meets as
+/// `auto`, should the input not be one RGL file: [`WarpedChoice::Required`] refuses it first).
+pub fn parse_model(s: &str) -> Result<(ModelChoice, WarpedChoice)> {
     match s.trim() {
-        "auto" => Ok(ModelChoice::Auto),
-        "records" => Ok(ModelChoice::Records),
-        "shared" => Ok(ModelChoice::Shared),
-        _ => Err(bad("model", s, "auto, records or shared")),
+        "auto" => Ok((ModelChoice::Auto, WarpedChoice::Auto)),
+        "records" => Ok((ModelChoice::Records, WarpedChoice::Never)),
+        "shared" => Ok((ModelChoice::Shared, WarpedChoice::Never)),
+        "warped" => Ok((ModelChoice::Auto, WarpedChoice::Required)),
+        _ => Err(bad("model", s, "auto, records, shared or warped")),
+    }
+}
+
+/// `--transform`: `dct`, `wavelet` or `auto` (`None`: whichever gives the smaller file).
+pub fn parse_transform(s: &str) -> Result<Option<TableTransform>> {
+    match s.trim() {
+        "auto" => Ok(None),
+        "dct" => Ok(Some(TableTransform::Dct)),
+        "wavelet" => Ok(Some(TableTransform::Wavelet53)),
+        _ => Err(bad("transform", s, "dct, wavelet or auto")),
     }
 }
 
@@ -206,7 +237,8 @@ impl EncodeSettings {
         let key = name.trim().trim_start_matches("--").replace('_', "-");
         let e = &mut self.encoder;
         match key.as_str() {
-            "model" => e.model = parse_model(value)?,
+            "model" => (e.model, self.warped) = parse_model(value)?,
+            "transform" => self.transform = parse_transform(value)?,
             "basis" => e.basis = parse_basis(value)?,
             "terms" => e.terms = Some(parse_count(&key, value)?),
             "sh-level" => e.sh_level = Some(parse_count(&key, value)?),
@@ -403,12 +435,33 @@ mod tests {
         assert!(!s.encoder.sample_positions);
         assert_eq!(s.wavelengths, Some((450.0, 650.0)));
         assert_eq!(s.read.rgb_to_spectrum, Some(RgbToSpectrum::JakobHanika2019));
+        // --model decides warped tables too; --transform their transform.
+        assert_eq!(s.warped, WarpedChoice::Auto);
+        for (model, choice, warped) in [
+            ("warped", ModelChoice::Auto, WarpedChoice::Required),
+            ("records", ModelChoice::Records, WarpedChoice::Never),
+            ("shared", ModelChoice::Shared, WarpedChoice::Never),
+            ("auto", ModelChoice::Auto, WarpedChoice::Auto),
+        ] {
+            s.set("model", model).unwrap();
+            assert_eq!((s.encoder.model, s.warped), (choice, warped), "{model}");
+        }
+        for (t, want) in [
+            ("dct", Some(TableTransform::Dct)),
+            ("wavelet", Some(TableTransform::Wavelet53)),
+            ("auto", None),
+        ] {
+            s.set("transform", t).unwrap();
+            assert_eq!(s.transform, want);
+        }
         for (k, v) in [
             ("basis", "wavelet"),
             ("terms", "-1"),
             ("max-error", "0"),
             ("wavelengths", "650:450"),
             ("rgb-to-spectrum", "smits"),
+            ("transform", "haar"),
+            ("model", "table"),
             ("colour", "red"),
         ] {
             let e = s.set(k, v).unwrap_err().to_string();

@@ -43,6 +43,7 @@
 //! target, the truncation and bit-flip tests). Errors name the field and the byte offset.
 
 mod bsdf;
+mod encode_file;
 mod tensor;
 mod upsample;
 mod warp;
@@ -54,6 +55,7 @@ mod tests;
 pub use bsdf::{
     angles_deg, merge_cells, Cell, Channels, Evaluator, Incidence, IncidenceSamples, RglBsdf,
 };
+pub use encode_file::{encode_warped_file, WarpedFileOutcome};
 pub use tensor::{write_tensor, DType, FieldInfo, RglError, TensorFile};
 pub use upsample::{spectrum_to_linear_srgb, Fit, SigmoidSpectrum, Upsampler};
 pub use warped::{read_warped, WarpedRead};

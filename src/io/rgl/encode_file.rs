@@ -1,0 +1,144 @@
+//! One RGL file into warped tables (format 1.4/1.5), the default for such a file: the choice,
+//! the encode and the metadata that every entry point (`sbrdf encode`, Python's `sbrdf.encode`)
+//! calls, so that both write the same bytes. It runs before the sample-based encoder because it
+//! reads the measurement's own grid rather than samples at directions.
+
+use super::{read_warped, MAGIC};
+use crate::encode::encoder::MetaLevel;
+use crate::encode::settings::{EncodeSettings, WarpedChoice};
+use crate::encode::warped::{encode_warped, WarpedOptions, DEFAULT_MAX_ERROR};
+use crate::error::{Error, Result};
+use std::path::PathBuf;
+
+/// What encoding one RGL file as warped tables gave.
+#[derive(Debug, Clone)]
+pub struct WarpedFileOutcome {
+    /// The `.sbrdf` file's bytes.
+    pub bytes: Vec<u8>,
+    /// The relative L2 error of each stored incidence, in the order of `thetas_deg`.
+    pub errors: Vec<f64>,
+    /// The stored viewing incidences, degrees.
+    pub thetas_deg: Vec<f64>,
+    /// Spectral terms of the tables.
+    pub terms: usize,
+    /// Bytes of the RGL file read.
+    pub input_bytes: usize,
+    /// Notes and warnings, one line each, without a prefix.
+    pub messages: Vec<String>,
+}
+
+impl WarpedFileOutcome {
+    /// The worst stored incidence's error.
+    pub fn worst_error(&self) -> f64 {
+        self.errors.iter().cloned().fold(0.0, f64::max)
+    }
+}
+
+fn is_rgl_file(path: &std::path::Path) -> bool {
+    let mut magic = [0u8; 12];
+    path.is_file()
+        && std::fs::File::open(path)
+            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic))
+            .is_ok()
+        && &magic == MAGIC
+}
+
+/// Encodes `inputs` as warped tables when `settings.warped` requires it (`--model warped`) or
+/// leaves the choice (`auto`) and they are exactly one isotropic RGL file without options warped
+/// tables do not take (`--wavelengths`, `--incident-max`). `Ok(None)`: not for warped tables
+/// (the caller encodes samples). Fails, writing nothing, where an explicit `max_error` is unmet
+/// without `best_effort`, or where `--model warped` cannot be honoured.
+pub fn encode_warped_file(
+    inputs: &[PathBuf],
+    settings: &EncodeSettings,
+) -> Result<Option<WarpedFileOutcome>> {
+    let asked = settings.warped == WarpedChoice::Required;
+    if settings.warped == WarpedChoice::Never {
+        return Ok(None);
+    }
+    let single_rgl = inputs.len() == 1 && is_rgl_file(&inputs[0]);
+    let restricted = settings.wavelengths.is_some() || settings.incident_max.is_some();
+    if !single_rgl || restricted {
+        if asked {
+            return Err(Error::Parameter(format!(
+                "--model warped takes exactly one RGL .bsdf file{}",
+                if restricted {
+                    ", without --wavelengths or --incident-max"
+                } else {
+                    ""
+                }
+            )));
+        }
+        return Ok(None);
+    }
+    let path = &inputs[0];
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: Some(path.clone()),
+        source,
+    })?;
+    let read = match read_warped(&name, &bytes, &settings.read)? {
+        Ok(r) => r,
+        Err(reason) if asked => return Err(Error::Input(reason)),
+        Err(_) => return Ok(None),
+    };
+    let budget = settings.max_error.unwrap_or(DEFAULT_MAX_ERROR);
+    let opts = WarpedOptions {
+        max_error: budget,
+        terms: settings.encoder.terms,
+        transform: settings.transform,
+    };
+    let mut enc = encode_warped(&read.input, &opts)?;
+    let worst = enc.errors.iter().cloned().fold(0.0, f64::max);
+    let mut messages = Vec::new();
+    if !enc.met {
+        let msg = format!(
+            "{name}: warped tables reach at best {:.3}% at the worst stored incidence, above the \
+             budget of {:.3}%",
+            100.0 * worst,
+            100.0 * budget
+        );
+        if settings.max_error.is_some() && !settings.best_effort {
+            return Err(Error::Input(format!(
+                "{msg}; nothing written (pass --best-effort to write the most accurate tables)"
+            )));
+        }
+        messages.push(format!("{msg}; writing the most accurate tables"));
+    }
+    let meta: MetaLevel = settings.encoder.meta;
+    if !matches!(meta, MetaLevel::None) {
+        // What a reader of the file needs to know of its making; what the file itself says
+        // (terms, steps, incidences) is not repeated. `short` leaves out the budget and error.
+        let mut m = serde_json::Map::new();
+        let mut put = |k: &str, v: serde_json::Value| {
+            m.insert(k.to_string(), v);
+        };
+        put(
+            "encoder",
+            format!("sbrdf {} warped tables", env!("CARGO_PKG_VERSION")).into(),
+        );
+        let base = path
+            .file_name()
+            .map_or_else(|| name.clone(), |f| f.to_string_lossy().into_owned());
+        put(&format!("rgl:{base}"), read.description.clone().into());
+        if read.upsampled {
+            put("rgb_to_spectrum", "jakob-hanika-2019".into());
+        }
+        if matches!(meta, MetaLevel::Full) {
+            put("max_error", budget.into());
+            put("rel_error", ((worst * 1e5).round() / 1e5).into());
+        }
+        for (k, v) in &settings.encoder.provenance {
+            put(k, v.clone().into());
+        }
+        enc.material.metadata = Some(serde_json::Value::Object(m).to_string());
+    }
+    Ok(Some(WarpedFileOutcome {
+        bytes: crate::write_material(&enc.material)?,
+        errors: enc.errors,
+        thetas_deg: read.input.thetas_deg.iter().map(|&t| t as f64).collect(),
+        terms: enc.material.spectral.terms,
+        input_bytes: bytes.len(),
+        messages,
+    }))
+}
