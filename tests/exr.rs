@@ -224,6 +224,15 @@ fn decoded_slices_read_back_to_the_decoder_values() {
 /// Writes a one-layer EXR with the given channels (every pixel the same value per channel) and
 /// header attributes.
 fn custom_exr(channels: &[(&str, f32)], attrs: &[(&str, f32)], size: (usize, usize)) -> Vec<u8> {
+    custom_exr_encoded(channels, attrs, size, Encoding::UNCOMPRESSED)
+}
+
+fn custom_exr_encoded(
+    channels: &[(&str, f32)],
+    attrs: &[(&str, f32)],
+    size: (usize, usize),
+    encoding: Encoding,
+) -> Vec<u8> {
     let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = channels
         .iter()
         .map(|(n, v)| AnyChannel::new(*n, FlatSamples::F32(vec![*v; size.0 * size.1])))
@@ -235,12 +244,7 @@ fn custom_exr(channels: &[(&str, f32)], attrs: &[(&str, f32)], size: (usize, usi
             exr::meta::attribute::AttributeValue::F32(*v),
         );
     }
-    let image = Image::from_layer(Layer::new(
-        size,
-        la,
-        Encoding::UNCOMPRESSED,
-        AnyChannels::sort(list),
-    ));
+    let image = Image::from_layer(Layer::new(size, la, encoding, AnyChannels::sort(list)));
     let mut out = std::io::Cursor::new(Vec::new());
     image.write().to_buffered(&mut out).unwrap();
     out.into_inner()
@@ -325,6 +329,39 @@ fn malformed_slices_are_refused_with_clear_messages() {
     )
     .unwrap();
     assert!(read_slice("good.exr", &good).is_ok());
+    // A header claiming far more pixels than its bytes can hold, even at DEFLATE's 1032:1, is
+    // refused from the header, before pixels are allocated (issue 39: a fuzz input of 1 kB
+    // asked for over 1 GB). The data window patched to 4096 × 4096.
+    let mut huge = good.clone();
+    let key = b"dataWindow\0box2i\0";
+    let at = huge
+        .windows(key.len())
+        .position(|w| w == key)
+        .expect("a data window")
+        + key.len()
+        + 4;
+    for (k, v) in [0i32, 0, 4095, 4095].into_iter().enumerate() {
+        huge[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    // A real file compressed as far as EXR goes (constant pixels, ZIP, 16 lines a chunk) is
+    // within the bound.
+    let flat = custom_exr_encoded(
+        &[("T.500nm", 0.25), ("T.600nm", 0.25), ("T.700nm", 0.25)],
+        &inc,
+        (512, 256),
+        Encoding::SMALL_LOSSLESS,
+    );
+    let ratio = (512 * 256 * 3 * 4) as f64 / flat.len() as f64;
+    assert!(ratio > 50.0, "{ratio}");
+    assert_eq!(
+        read_slice("flat.exr", &flat).unwrap().pixels.len(),
+        512 * 256
+    );
+    let e = error_of("huge.exr", &huge);
+    assert!(
+        e.contains("huge.exr") && e.contains("4096×4096") && e.contains("1032:1"),
+        "{e}"
+    );
     for cut in 0..good.len() {
         let r = read_slice("cut.exr", &good[..cut]);
         assert!(r.is_err(), "truncated at {cut} of {} accepted", good.len());

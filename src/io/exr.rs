@@ -29,6 +29,12 @@ pub const MASK_CHANNEL: &str = "mask";
 /// At most this many pixel values (pixels × channels) in one slice, checked from the header
 /// before any pixel is read (1 GiB of f32).
 pub const MAX_SLICE_VALUES: usize = 1 << 28;
+/// The most pixel bytes one byte of an EXR file can decompress to: DEFLATE's limit (about
+/// 1032:1: 258 bytes from 2 bits), which the ZIP and ZIPS compressions reach; RLE (64:1), PIZ,
+/// PXR24 and the B44s stay below it. A header claiming more pixel bytes than that times the
+/// file's length is refused before anything is allocated, so a 1 kB file costs at most about
+/// 1 MB (issue 39: a 1 kB fuzz input asked for over 1 GB).
+pub const MAX_EXPANSION: usize = 1032;
 
 const SPEED_OF_LIGHT: f64 = 299_792_458.0; // m/s
 
@@ -243,6 +249,24 @@ pub fn read_slice(name: &str, bytes: &[u8]) -> Result<Slice> {
             )));
         }
         let values = h.layer_size.area().saturating_mul(h.channels.list.len());
+        let pixel_bytes = h.channels.list.iter().fold(0usize, |a, c| {
+            a.saturating_add(
+                h.layer_size
+                    .area()
+                    .saturating_mul(c.sample_type.bytes_per_sample()),
+            )
+        });
+        if pixel_bytes > MAX_EXPANSION.saturating_mul(bytes.len()) {
+            return Err(Error::Input(format!(
+                "{name}: the header claims {}×{} pixels × {} channels ({pixel_bytes} bytes), more \
+                 than {} bytes of file can hold at EXR's largest compression ({MAX_EXPANSION}:1); \
+                 the file is truncated or damaged",
+                h.layer_size.width(),
+                h.layer_size.height(),
+                h.channels.list.len(),
+                bytes.len()
+            )));
+        }
         if values > MAX_SLICE_VALUES {
             return Err(Error::LimitsExceeded(format!(
                 "{name}: {}×{} pixels × {} channels exceeds the limit of {MAX_SLICE_VALUES} values",
