@@ -359,3 +359,122 @@ fn the_circle_check_finds_a_planted_circle() {
     fixed[2].1 = "fn f() {}".into();
     assert!(import_circles(&fixed).is_empty());
 }
+
+/// The code map's tree (`docs/guide/code-map.md`), split into its sections: (the name at the
+/// start of a line, `decode/` or `lib.rs`, and the section's text).
+fn code_map_sections(map: &str) -> Vec<(String, String)> {
+    let start = map.find("```text\n").expect("the code map's tree") + 8;
+    let end = start + map[start..].find("```").expect("the tree's end");
+    let mut out: Vec<(String, String)> = Vec::new();
+    for line in map[start..end].lines() {
+        let head = line.split_whitespace().next().unwrap_or("");
+        if !line.starts_with(' ') && (head.ends_with('/') || head.ends_with(".rs")) {
+            out.push((head.to_string(), String::new()));
+        }
+        if let Some(last) = out.last_mut() {
+            last.1.push_str(line);
+            last.1.push('\n');
+        }
+    }
+    out
+}
+
+/// The `name.rs` words of a text (with any folder prefix).
+fn rs_words(text: &str) -> Vec<String> {
+    text.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '/' || c == '.'))
+        .map(|w| w.trim_end_matches('.'))
+        .filter(|w| w.ends_with(".rs") && w.len() > 3)
+        .map(str::to_string)
+        .collect()
+}
+
+/// The code-map problems of a tree against the files under `src` (paths relative to it).
+fn code_map_problems(map: &str, files: &[String], root: &Path) -> Vec<String> {
+    let sections = code_map_sections(map);
+    let mut problems = Vec::new();
+    let under = |dir: &str| -> Vec<&String> {
+        files
+            .iter()
+            .filter(|f| dir.is_empty() || f.starts_with(dir))
+            .collect()
+    };
+    for f in files {
+        let top = f.split('/').next().unwrap();
+        let named = if !f.contains('/') {
+            sections.iter().any(|(h, _)| h == f)
+        } else {
+            let folder = format!("{top}/");
+            let base = f.rsplit('/').next().unwrap();
+            sections.iter().any(|(h, text)| {
+                h == &folder
+                    && if base == "mod.rs" {
+                        // a folder's mod.rs: the folder (or a nested folder) is named
+                        let parent = f.trim_end_matches("mod.rs").trim_end_matches('/');
+                        let leaf = parent.rsplit('/').next().unwrap();
+                        parent == top || text.contains(&format!("{leaf}/"))
+                    } else {
+                        rs_words(text).iter().any(|w| w == base)
+                    }
+            })
+        };
+        if !named {
+            problems.push(format!("src/{f} is not in the code map"));
+        }
+    }
+    for (head, text) in &sections {
+        let dir = if head.ends_with('/') {
+            head.as_str()
+        } else {
+            ""
+        };
+        for w in rs_words(text) {
+            let exists = if w.contains('/') {
+                root.join("src").join(&w).exists() || root.join(&w).exists()
+            } else {
+                under(dir)
+                    .iter()
+                    .any(|f| f.rsplit('/').next() == Some(w.as_str()))
+            };
+            if !exists {
+                problems.push(format!(
+                    "the code map names {w} under {head}, which does not exist"
+                ));
+            }
+        }
+    }
+    problems
+}
+
+#[test]
+fn the_code_map_names_every_file_and_only_files_that_exist() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut paths = Vec::new();
+    rust_files(&src(), &mut paths);
+    let files: Vec<String> = paths
+        .iter()
+        .map(|p| {
+            p.strip_prefix(src())
+                .unwrap()
+                .to_string_lossy()
+                .replace('\\', "/")
+        })
+        .collect();
+    let map = std::fs::read_to_string(root.join("docs/guide/code-map.md")).unwrap();
+    let problems = code_map_problems(&map, &files, root);
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+    // The check fails on a file left out and on a file that is not there.
+    let mut more = files.clone();
+    more.push("decode/planted.rs".into());
+    let p = code_map_problems(&map, &more, root);
+    assert!(
+        p.iter().any(|m| m.contains("src/decode/planted.rs is not")),
+        "{p:?}"
+    );
+    let stale = map.replace("  sums.rs ", "  summed.rs ");
+    let p = code_map_problems(&stale, &files, root);
+    assert!(p.iter().any(|m| m.contains("names summed.rs")), "{p:?}");
+    assert!(
+        p.iter().any(|m| m.contains("src/decode/sums.rs is not")),
+        "{p:?}"
+    );
+}
