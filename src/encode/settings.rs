@@ -32,7 +32,8 @@ pub struct EncodeSettings {
     /// before [`encode_samples`].
     pub read: ReadOptions,
     /// Whether one RGL file is kept on its warped grid (`--model warped`: required; `auto`:
-    /// where it suits; `records`, `shared`: never): [`crate::encode::warped_file`].
+    /// where it suits; `records`, `shared`: never), as the RGL reader's `encode_warped_file`
+    /// reads it.
     pub warped: WarpedChoice,
     /// `--transform`: the warped tables' transform (`None`, `auto`: the smaller file).
     pub transform: Option<TableTransform>,
