@@ -17,69 +17,91 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// The outgoing direction d of `s` as a unit vector in the incidence's own azimuthal frame.
-fn relative(s: &IncidentSamples, d: usize) -> [f64; 3] {
-    let [t, p] = s.directions[d];
-    dir_from_deg(t, p - s.phi_i)
+/// The set's directions as unit vectors, made once: each incidence's direction, and each
+/// outgoing direction in its incidence's own azimuthal frame (φo − φi).
+struct Directions {
+    incident: Vec<[f64; 3]>,
+    outgoing: Vec<Vec<[f64; 3]>>,
 }
 
-/// Among the directions of `s` that `allowed` admits, the one nearest to `v` (relative frame).
-fn nearest_direction(
-    s: &IncidentSamples,
-    v: [f64; 3],
-    allowed: impl Fn(usize) -> bool,
-) -> Option<usize> {
-    let mut best: Option<(usize, f64)> = None;
-    for d in (0..s.directions.len()).filter(|&d| allowed(d)) {
-        let c = dot(relative(s, d), v);
-        if best.is_none_or(|(_, b)| c > b) {
-            best = Some((d, c));
+impl Directions {
+    fn of(set: &SampleSet) -> Self {
+        let relative = |s: &IncidentSamples| -> Vec<[f64; 3]> {
+            s.directions
+                .iter()
+                .map(|&[t, p]| dir_from_deg(t, p - s.phi_i))
+                .collect()
+        };
+        Directions {
+            incident: set
+                .incidences
+                .iter()
+                .map(|s| dir_from_deg(s.theta_i, s.phi_i))
+                .collect(),
+            outgoing: set.incidences.iter().map(relative).collect(),
         }
     }
-    best.map(|(d, _)| d)
-}
 
-/// The training sample (incidence, direction) nearest to direction d of incidence i, where
-/// `train(j, e)` says whether sample e of incidence j is in the training set.
-fn nearest_sample(
-    set: &SampleSet,
-    i: usize,
-    d: usize,
-    train: &dyn Fn(usize, usize) -> bool,
-) -> Option<(usize, usize)> {
-    let s = &set.incidences[i];
-    let v = relative(s, d);
-    if let Some(e) = nearest_direction(s, v, |e| train(i, e)) {
-        return Some((i, e));
+    /// Among the outgoing directions of incidence j that `allowed` admits, the one nearest to
+    /// `v` (relative frame).
+    fn nearest_direction(
+        &self,
+        j: usize,
+        v: [f64; 3],
+        allowed: impl Fn(usize) -> bool,
+    ) -> Option<usize> {
+        let mut best: Option<(usize, f64)> = None;
+        for (d, &u) in self.outgoing[j].iter().enumerate() {
+            if !allowed(d) {
+                continue;
+            }
+            let c = dot(u, v);
+            if best.is_none_or(|(_, b)| c > b) {
+                best = Some((d, c));
+            }
+        }
+        best.map(|(d, _)| d)
     }
-    let wi = dir_from_deg(s.theta_i, s.phi_i);
-    let mut order: Vec<(usize, f64)> = (0..set.incidences.len())
-        .filter(|&j| j != i)
-        .map(|j| {
-            let o = &set.incidences[j];
-            (j, dot(dir_from_deg(o.theta_i, o.phi_i), wi))
+
+    /// The training sample (incidence, direction) nearest to direction d of incidence i, where
+    /// `train(j, e)` says whether sample e of incidence j is in the training set.
+    fn nearest_sample(
+        &self,
+        i: usize,
+        d: usize,
+        train: &dyn Fn(usize, usize) -> bool,
+    ) -> Option<(usize, usize)> {
+        let v = self.outgoing[i][d];
+        if let Some(e) = self.nearest_direction(i, v, |e| train(i, e)) {
+            return Some((i, e));
+        }
+        let wi = self.incident[i];
+        let mut order: Vec<(usize, f64)> = (0..self.incident.len())
+            .filter(|&j| j != i)
+            .map(|j| (j, dot(self.incident[j], wi)))
+            .collect();
+        // Nearest incidence first; a stable sort keeps the input's order among equals.
+        order.sort_by(|a, b| b.1.total_cmp(&a.1));
+        order.into_iter().find_map(|(j, _)| {
+            self.nearest_direction(j, v, |e| train(j, e))
+                .map(|e| (j, e))
         })
-        .collect();
-    // Nearest incidence first; a stable sort keeps the input's order among equals.
-    order.sort_by(|a, b| b.1.total_cmp(&a.1));
-    order.into_iter().find_map(|(j, _)| {
-        nearest_direction(&set.incidences[j], v, |e| train(j, e)).map(|e| (j, e))
-    })
+    }
 }
 
 /// Adds the prediction of sample (i, d) by its nearest training sample to `sums` (a value with
 /// no training sample at all is predicted as 0).
 fn score_sample(
     set: &SampleSet,
-    i: usize,
-    d: usize,
+    dirs: &Directions,
+    (i, d): (usize, usize),
     train: &dyn Fn(usize, usize) -> bool,
     eps: f64,
     sums: &mut ErrorSums,
 ) {
     let w = set.wavelengths.len();
     let measured = &set.incidences[i].values[d * w..(d + 1) * w];
-    match nearest_sample(set, i, d, train) {
+    match dirs.nearest_sample(i, d, train) {
         Some((j, e)) => {
             let predicted = &set.incidences[j].values[e * w..(e + 1) * w];
             for (p, m) in predicted.iter().zip(measured) {
@@ -98,11 +120,12 @@ pub fn nearest_k_fold(set: &SampleSet, k: usize, salt: usize, eps: f64) -> Vec<E
     if k < 2 {
         return sums;
     }
+    let dirs = Directions::of(set);
     for f in 0..k {
         let train = |j: usize, e: usize| ranks[j][e] % k != f;
         for (i, s) in set.incidences.iter().enumerate() {
             for d in (0..s.directions.len()).filter(|&d| ranks[i][d] % k == f) {
-                score_sample(set, i, d, &train, eps, &mut sums[i]);
+                score_sample(set, &dirs, (i, d), &train, eps, &mut sums[i]);
             }
         }
     }
@@ -112,9 +135,10 @@ pub fn nearest_k_fold(set: &SampleSet, k: usize, salt: usize, eps: f64) -> Vec<E
 /// The nearest sample's sums at every sample of incidence `x` when `x` is left out.
 pub fn nearest_left_out(set: &SampleSet, x: usize, eps: f64) -> ErrorSums {
     let mut sums = ErrorSums::default();
+    let dirs = Directions::of(set);
     let train = |j: usize, _e: usize| j != x;
     for d in 0..set.incidences[x].directions.len() {
-        score_sample(set, x, d, &train, eps, &mut sums);
+        score_sample(set, &dirs, (x, d), &train, eps, &mut sums);
     }
     sums
 }

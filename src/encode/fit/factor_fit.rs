@@ -11,7 +11,7 @@
 //! zeros) free of invented light; and too little smoothing lets exp() of an unconstrained table
 //! explode between the samples, which the relative-error term of the CV score catches.
 
-use crate::encode::metrics::{fold_order, log_epsilon, ErrorSums};
+use crate::encode::metrics::{fold_ranks, log_epsilon, ErrorSums};
 use crate::encode::samples::SampleSet;
 use crate::model::angles::dir_from_deg;
 use crate::model::factor::{
@@ -715,19 +715,7 @@ pub fn fit_factor(set: &SampleSet, opts: &FactorOptions) -> Option<FactorFit> {
     } else {
         let k = opts.inner_folds;
         // The inner folds' own shuffle (salted so they differ from validate's outer folds).
-        let ranks: Vec<Vec<usize>> = set
-            .incidences
-            .iter()
-            .enumerate()
-            .map(|(i, s)| {
-                let order = fold_order(s.directions.len(), i + INNER_FOLD_SALT);
-                let mut rank = vec![0; order.len()];
-                for (pos, &d) in order.iter().enumerate() {
-                    rank[d] = pos;
-                }
-                rank
-            })
-            .collect();
+        let ranks = fold_ranks(set, INNER_FOLD_SALT);
         let held = |f: usize, i: usize, d: usize| ranks[i][d] % k == f;
         // The (μ, fold) fits are independent: fitted side by side, then scored in their order,
         // so the choice does not depend on the thread count.
