@@ -2027,24 +2027,74 @@ fn sbrdf_warp_values_sample(w: u32, sl: SbrdfWarpSlices, sx_in: f32, sy_in: f32)
     return vec2<f32>((f32(a) + tx) / n1, (f32(b) + ty) / n1);
 }
 
-// sbrdf_pdf for warped tables at section w (unit ui, uo above the horizon): the cosine's share
-// plus the tables' share through the half vector of ui and uo and of ui and uo's mirror image
-// below the surface (the draw reflects ui about the drawn half vector and takes |z|).
-// The mirror image of the exact mirror direction is -ui, where that term's density grows as 1/|h|
-// and f32 loses it unless h is formed where it is exact and wo.m comes from |h| (issue 38):
-// h = ui + uo' in the surface's frame (nearly opposite f32 components subtract exactly), then
-// turned into the tables' frame (an error relative to |h|, not to 1); and wo.m = |h|/2 for unit
-// vectors, where an explicit dot with m nearly perpendicular to wo loses every digit.
-fn sbrdf_warp_pdf(w: u32, ui: vec3<f32>, uo: vec3<f32>) -> f32 {
+// a + b = s + e exactly, as (s, e) (Knuth's two-sum: additions only, which no compiler fuses).
+fn sbrdf_two_sum(a: f32, b: f32) -> vec2<f32> {
+    let s = a + b;
+    let bb = s - a;
+    return vec2<f32>(s, (a - (s - bb)) + (b - bb));
+}
+
+// |v|^2 - 1 to about 2^-35 where it is within 2^-10 of 0 (as it is for a renderer's unit vectors
+// in f32): each component split by its bits into 12 significant bits and the rest, so that its
+// square is three products that f32 holds exactly (whether or not a compiler fuses them into
+// the sums), and the three large squares summed with two-sums.
+fn sbrdf_norm2_minus_one(v: vec3<f32>) -> f32 {
+    let hi = bitcast<vec3<f32>>(bitcast<vec3<u32>>(v) & vec3<u32>(0xfffff000u));
+    let lo = v - hi;
+    let sq = hi * hi;
+    let a = sbrdf_two_sum(sq.x, sq.y);
+    let b = sbrdf_two_sum(a.x, sq.z);
+    // b.x lies in [0.5, 2] here, so this subtraction is exact.
+    return (b.x - 1.0) + ((a.y + b.y) + (2.0 * dot(hi, lo) + dot(lo, lo)));
+}
+
+// How far |v|^2 may lie from 1 for sbrdf_norm2_minus_one's and sbrdf_inv_norm_minus_one's
+// precision.
+const SBRDF_NEAR_UNIT: f32 = 0.0009765625;
+
+// 1/|v| - 1 from e = |v|^2 - 1 (|e| <= 2^-10: the series to e^2 leaves under 2^-31 of it).
+fn sbrdf_inv_norm_minus_one(e: f32) -> f32 {
+    return e * (-0.5 + 0.375 * e);
+}
+
+// sbrdf_pdf for warped tables at section w (wi, wo finite, non-zero, above the horizon: as the
+// caller was given them, not yet made unit): the cosine's share plus the tables' share through
+// the half vector of wi and wo and of wi and wo's mirror image below the surface (the draw
+// reflects wi about the drawn half vector and takes |z|).
+// Near the mirror direction both half vectors come from nearly opposite components whose sum
+// is far smaller than either, so f32 must form them where the cancellation is exact (issue 38):
+// h = wi/|wi| + wo'/|wo| as (wi + wo') (nearly opposite f32 components subtract exactly) plus
+// the unit scalings' small corrections wi (1/|wi| - 1) + wo' (1/|wo| - 1), each |v|^2 - 1 taken
+// to 2^-35 (normalising in f32 first rounds each component by up to 2^-25, 1e-3 of such a sum
+// at a grazing light's mirror); then h turned into the tables' frame (an error relative to |h|,
+// not to 1); and wo.m = |h|/2 for unit vectors, where an explicit dot with m nearly
+// perpendicular to wo loses every digit. Inputs further than 2^-10 from unit length are made
+// unit in f32 first.
+fn sbrdf_warp_pdf(w: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
+    let ui = sbrdf_upper(wi).xyz;
+    let uo = sbrdf_upper(wo).xyz;
     if (uo.z <= 0.0) {
         return 0.0;
+    }
+    var vi = ui;
+    var vo = uo;
+    var ci = 0.0;
+    var co = 0.0;
+    let ei = sbrdf_norm2_minus_one(wi);
+    let eo = sbrdf_norm2_minus_one(wo);
+    if (abs(ei) <= SBRDF_NEAR_UNIT && abs(eo) <= SBRDF_NEAR_UNIT) {
+        vi = wi;
+        vo = wo;
+        ci = sbrdf_inv_norm_minus_one(ei);
+        co = sbrdf_inv_norm_minus_one(eo);
     }
     let fr = sbrdf_warp_frame(ui);
     let sl = sbrdf_warp_slices(w, fr.z);
     let r = sbrdf_u(w + SBRDF_WARP_R);
     var tables = 0.0;
     for (var j = 0u; j < 2u; j = j + 1u) {
-        let h = sbrdf_warp_in(fr, ui + vec3<f32>(uo.x, uo.y, select(uo.z, -uo.z, j == 1u)));
+        let vm = vec3<f32>(vo.x, vo.y, select(vo.z, -vo.z, j == 1u));
+        let h = sbrdf_warp_in(fr, (vi + vm) + (vi * ci + vm * co));
         let len = length(h);
         if (!(len > 0.0) || h.z < 0.0) {
             continue;
@@ -2069,7 +2119,8 @@ fn sbrdf_warp_pdf(w: u32, ui: vec3<f32>, uo: vec3<f32>) -> f32 {
 
 // sbrdf_sample for warped tables at section w (unit ui above the horizon, u in [0, 1)^2):
 // (wo, pdf), vec4(0) for none.
-fn sbrdf_warp_sample(w: u32, ui: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
+fn sbrdf_warp_sample(w: u32, wi: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
+    let ui = sbrdf_upper(wi).xyz;
     let fr = sbrdf_warp_frame(ui);
     let a = vec3<f32>(sqrt(ui.x * ui.x + ui.y * ui.y), 0.0, ui.z);
     let sl = sbrdf_warp_slices(w, fr.z);
@@ -2100,7 +2151,7 @@ fn sbrdf_warp_sample(w: u32, ui: vec3<f32>, u: vec2<f32>) -> vec4<f32> {
     if (back.w == 0.0) {
         return vec4<f32>(0.0);
     }
-    let pdf = sbrdf_warp_pdf(w, ui, back.xyz);
+    let pdf = sbrdf_warp_pdf(w, wi, wo);
     if (!(pdf > 0.0 && sbrdf_finite(pdf))) {
         return vec4<f32>(0.0);
     }
@@ -2796,7 +2847,7 @@ fn sbrdf_pdf(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> f32 {
     }
     let w = sbrdf_warp_section(base);
     if (w != 0u) {
-        return sbrdf_warp_pdf(w, ui.xyz, uo.xyz);
+        return sbrdf_warp_pdf(w, wi, wo);
     }
     if (sbrdf_u(base + SBRDF_HDR_OFF_SAMPLING) == 0u) {
         return uo.z / SBRDF_PI;
@@ -2820,7 +2871,7 @@ fn sbrdf_sample(base: u32, wi: vec3<f32>, u_in: vec2<f32>) -> vec4<f32> {
     }
     let w = sbrdf_warp_section(base);
     if (w != 0u) {
-        return sbrdf_warp_sample(w, ui.xyz, u);
+        return sbrdf_warp_sample(w, wi, u);
     }
     if (sbrdf_u(base + SBRDF_HDR_OFF_SAMPLING) == 0u) {
         let r = sqrt(u.x);
