@@ -125,6 +125,7 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
         let enc = encode_warped(
             &input(name),
             &WarpedOptions {
+                noise_floor: false,
                 max_error: DEFAULT_MAX_ERROR,
                 terms: None,
                 transform: None,
@@ -157,6 +158,7 @@ fn every_budget_is_met_and_bytes_fall_as_it_grows() {
     let enc = encode_warped(
         &input(satin),
         &WarpedOptions {
+            noise_floor: false,
             max_error: 0.0045,
             terms: None,
             transform: None,
@@ -176,6 +178,7 @@ fn budgets_are_met(name: &str, stated: [f64; 4]) {
         let enc = encode_warped(
             &inp,
             &WarpedOptions {
+                noise_floor: false,
                 max_error: budget,
                 terms: None,
                 transform: None,
@@ -237,6 +240,7 @@ fn the_decoder_follows_the_measurement_between_its_nodes() {
         let enc = encode_warped(
             &input(name),
             &WarpedOptions {
+                noise_floor: false,
                 max_error: DEFAULT_MAX_ERROR,
                 terms: None,
                 transform: None,
@@ -271,6 +275,7 @@ fn an_incidence_left_out_is_predicted_from_its_neighbours() {
             let enc = encode_warped(
                 &held,
                 &WarpedOptions {
+                    noise_floor: false,
                     max_error: DEFAULT_MAX_ERROR,
                     terms: None,
                     transform: None,
@@ -373,6 +378,7 @@ fn each_transform_meets_the_budget_and_the_default_keeps_the_smaller_file() {
             let enc = encode_warped(
                 &inp,
                 &WarpedOptions {
+                    noise_floor: false,
                     max_error: DEFAULT_MAX_ERROR,
                     terms: None,
                     transform,
@@ -535,6 +541,7 @@ fn a_file_written_and_read_back_is_the_same_material_and_bytes() {
     let enc = encode_warped(
         &input("cc_ibiza_sunset"),
         &WarpedOptions {
+            noise_floor: false,
             max_error: 0.02,
             terms: None,
             transform: None,

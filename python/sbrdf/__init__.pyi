@@ -65,4 +65,5 @@ def encode(
     Returns bytes, rel_error, worst_error, messages. One RGL file is encoded as `sbrdf encode`
     encodes it, byte for byte (warped tables by default; model="warped" requires them,
     transform="dct"|"wavelet"|"auto" picks their transform); rel_error and worst_error are then
-    the worst stored incidence's error."""
+    the worst stored incidence's error, and noise_floor the measurement's noise as the encoder
+    estimated it (worst incidence; the default budget codes no incidence below it)."""

@@ -334,9 +334,10 @@ fn option_text(name: &str, v: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
 }
 
 /// Encodes samples into a .sbrdf file at `out_path` (written atomically) and returns a summary
-/// dict (bytes, rel_error, worst_error, messages). `samples` is a dict of equally long arrays
-/// named like the long CSV layout's columns (theta_i, phi_i, theta_o, phi_o in degrees,
-/// wavelength_nm, value in 1/sr), or a path (CSV, EXR slice, folder) or a list of paths.
+/// dict (bytes, rel_error, worst_error, messages; noise_floor for an RGL file's warped
+/// tables). `samples` is a dict of equally long arrays named like the long CSV layout's
+/// columns (theta_i, phi_i, theta_o, phi_o in degrees, wavelength_nm, value in 1/sr), or a
+/// path (CSV, EXR slice, folder) or a list of paths.
 /// Keyword options are `sbrdf encode`'s, with `_` for `-`: basis="cosine", terms=5,
 /// max_error=0.01, best_effort=True, lobes=["gaussian"], metadata={"source": "lab"}, …
 #[pyfunction]
@@ -394,6 +395,7 @@ fn encode(
             d.set_item("bytes", o.bytes.len())?;
             d.set_item("rel_error", o.worst_error())?;
             d.set_item("worst_error", o.worst_error())?;
+            d.set_item("noise_floor", o.noise_floor())?;
             d.set_item("messages", o.messages)?;
             return Ok(d.into_any().unbind());
         }

@@ -191,6 +191,11 @@ def test_encode_writes_the_command_lines_bytes(tmp_path, name, options):
         version = sbrdf.open(tmp_path / "py.sbrdf").info["format_version"]
         assert version == ("1.4" if options.get("transform") == "dct" else version)
         assert version in ("1.4", "1.5") and len(py) < 10_000, (version, len(py))
+        # The measurement's noise as estimated (issue 39): a clean measurement reads far below
+        # the budget, and the file's metadata records the same figure.
+        meta = sbrdf.open(tmp_path / "py.sbrdf").info["metadata"]
+        assert 0 < summary["noise_floor"] < 0.005, summary
+        assert abs(meta["noise_floor"] - summary["noise_floor"]) <= 5e-6, (meta, summary)
 
 
 def test_encode_refuses_bad_input_with_the_command_lines_messages(tmp_path):

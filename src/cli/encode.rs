@@ -138,7 +138,8 @@ pub struct EncodeOptionArgs {
     /// model (spectral terms, SH level, lobe, precision) meeting it; with warped tables (one RGL
     /// file), the largest quantisation step meeting it at every stored incidence. Given
     /// explicitly, the encode fails where it cannot be met [default with --peak joint: 0.5%,
-    /// best effort; with warped tables: 1%].
+    /// best effort; with warped tables: 1%, or an incidence's estimated measurement noise
+    /// where that is higher, so that no bytes code noise (`sbrdf info` shows the estimate)].
     #[arg(long, value_name = "E")]
     pub max_error: Option<String>,
     /// With --max-error: write the most accurate model where the budget cannot be met, and

@@ -29,7 +29,8 @@ pub fn try_encode(
         .collect();
     eprintln!(
         "sbrdf: wrote {}: warped tables, {} incidences, {} spectral terms, {} bytes ({:.0}× smaller \
-         than the {}-byte input) in {:.1} s; relative error per stored incidence {}",
+         than the {}-byte input) in {:.1} s; relative error per stored incidence {}; the \
+         measurement's noise estimated at up to {:.3}%",
         output.display(),
         o.thetas_deg.len(),
         o.terms,
@@ -37,7 +38,8 @@ pub fn try_encode(
         o.input_bytes as f64 / o.bytes.len() as f64,
         o.input_bytes,
         started.elapsed().as_secs_f64(),
-        errs.join(", ")
+        errs.join(", "),
+        100.0 * o.noise_floor()
     );
     Ok(true)
 }

@@ -181,6 +181,19 @@ pub fn cmd_info(a: InfoArgs) -> Result<()> {
                 .collect::<Vec<_>>()
                 .join(", ")
         );
+        // The encoder's noise estimate (issue 39): below it a budget would code noise.
+        let noise = m
+            .metadata
+            .as_deref()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(t).ok())
+            .and_then(|v| v.get("noise_floor").and_then(|n| n.as_f64()));
+        if let Some(n) = noise {
+            println!(
+                "noise floor:    {:.3}% (the measurement's own noise as the encoder estimated it, \
+                 worst incidence; a default budget codes no incidence below it)",
+                100.0 * n
+            );
+        }
         if let Some(meta) = &m.metadata {
             println!("metadata:       {meta}");
         }

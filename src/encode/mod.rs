@@ -10,6 +10,7 @@ pub mod fit;
 pub mod info;
 pub mod metrics;
 pub mod nearest;
+pub mod noise;
 pub mod options;
 pub mod samples;
 pub mod settings;

@@ -79,6 +79,10 @@ pub struct WarpedOptions {
     /// The tables' transform; `None`: whichever gives the smaller file (`Some(Dct)` writes a
     /// file that 1.4 decoders read).
     pub transform: Option<TableTransform>,
+    /// Raise each incidence's budget to the measurement's estimated noise there
+    /// ([`crate::encode::noise`]) where that is higher: what a default budget does, so that
+    /// no bytes go to coding noise. An explicit budget leaves it off and means what it says.
+    pub noise_floor: bool,
 }
 
 /// Default budget of the warped encoder.
@@ -99,6 +103,12 @@ pub struct WarpedEncoded {
     pub step: f64,
     /// Whether the budget was met.
     pub met: bool,
+    /// The measurement's estimated noise at each stored incidence, relative like `errors`
+    /// ([`crate::encode::noise::noise_floor`]; 0 where the grid is too small to tell).
+    pub noise: Vec<f64>,
+    /// The budget each stored incidence was coded to: `max_error`, or its noise where
+    /// [`WarpedOptions::noise_floor`] raised it.
+    pub budgets: Vec<f64>,
 }
 
 /// Encodes a warped measurement. Fails only on inputs that break the layout's rules; a budget
@@ -156,6 +166,18 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
                 .max(f64::MIN_POSITIVE)
         })
         .collect();
+    let noise = crate::encode::noise::noise_floor(&y, n, r, dy, &norms);
+    let budgets: Vec<f64> = noise
+        .iter()
+        .map(|&e| {
+            if opts.noise_floor {
+                opts.max_error.max(e)
+            } else {
+                opts.max_error
+            }
+        })
+        .collect();
+    let least_budget = budgets.iter().cloned().fold(f64::INFINITY, f64::min);
     let basis_all = principal_basis(x, w);
     let max_k = w.min(opts.terms.unwrap_or(MAX_AUTO_TERMS)).max(1);
     // With a metric of D rows, D terms solved in the metric: its values come back exactly.
@@ -176,7 +198,7 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         projection_error = errs.iter().cloned().fold(0.0, f64::max);
         if forced.is_some()
             || opts.terms.is_some()
-            || projection_error <= 0.25 * opts.max_error
+            || projection_error <= 0.25 * least_budget
             || k >= max_k
         {
             break;
@@ -184,18 +206,7 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         k += 1;
     }
     // Each transform codes the same tables; the file keeps the one that comes out smaller.
-    let code = |transform| {
-        code_tables(
-            transform,
-            &target,
-            &coef,
-            &basis,
-            k,
-            n,
-            &norms,
-            opts.max_error,
-        )
-    };
+    let code = |transform| code_tables(transform, &target, &coef, &basis, k, n, &norms, &budgets);
     // What the file holds beside the tables, whichever transform codes them (σ's scale costs a
     // VNDF total per NDF node: computed once).
     let (ndf_precision, ndf) = ndf_stored(&input.ndf);
@@ -269,6 +280,8 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         projection_error,
         step: step as f64,
         met,
+        noise,
+        budgets,
     })
 }
 
@@ -295,7 +308,8 @@ impl Coded {
 
 /// Transforms and quantises the tables (i, k) of `coef` (K per node, node-major) in
 /// `transform`: per stored incidence, the largest step (bisection in log q) whose error meets
-/// the budget, so that every incidence ends near the budget and none spends bytes below it.
+/// its budget (`budgets[i]`), so that every incidence ends near its budget and none spends bytes
+/// below it.
 #[allow(clippy::too_many_arguments)]
 fn code_tables(
     transform: TableTransform,
@@ -305,7 +319,7 @@ fn code_tables(
     k: usize,
     n: usize,
     norms: &[f64],
-    max_error: f64,
+    budgets: &[f64],
 ) -> Coded {
     let r = target.r;
     let rr = r * r;
@@ -330,6 +344,7 @@ fn code_tables(
     let mut errors = vec![0.0; n];
     let mut met = true;
     for i in 0..n {
+        let max_error = budgets[i];
         let f = &freq[i * k * rr..(i + 1) * k * rr];
         let largest = f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let q_min = (largest / (MAX_LEVEL as f64 - 1.0)).max(f64::MIN_POSITIVE);

@@ -25,12 +25,23 @@ pub struct WarpedFileOutcome {
     pub input_bytes: usize,
     /// Notes and warnings, one line each, without a prefix.
     pub messages: Vec<String>,
+    /// The measurement's estimated noise at each stored incidence, relative like `errors`
+    /// ([`crate::encode::noise`]).
+    pub noise: Vec<f64>,
+    /// The budget each stored incidence was coded to (the asked or default budget, or the
+    /// noise where that is higher and the budget was the default).
+    pub budgets: Vec<f64>,
 }
 
 impl WarpedFileOutcome {
     /// The worst stored incidence's error.
     pub fn worst_error(&self) -> f64 {
         self.errors.iter().cloned().fold(0.0, f64::max)
+    }
+
+    /// The largest estimated noise of a stored incidence.
+    pub fn noise_floor(&self) -> f64 {
+        self.noise.iter().cloned().fold(0.0, f64::max)
     }
 }
 
@@ -87,10 +98,32 @@ pub fn encode_warped_file(
         max_error: budget,
         terms: settings.encoder.terms,
         transform: settings.transform,
+        // A default budget never codes below the measurement's own noise; an explicit one
+        // means what it says.
+        noise_floor: settings.max_error.is_none(),
     };
     let mut enc = encode_warped(&read.input, &opts)?;
     let worst = enc.errors.iter().cloned().fold(0.0, f64::max);
     let mut messages = Vec::new();
+    let noise = enc.noise.iter().cloned().fold(0.0, f64::max);
+    let raised = enc.budgets.iter().filter(|&&b| b > budget).count();
+    if raised > 0 {
+        messages.push(format!(
+            "{name}: the measurement's noise, estimated at up to {:.2}%, is above the default \
+             budget of {:.2}% at {raised} of {} stored incidences: those are coded to their noise \
+             instead (below it the bytes would code noise; --max-error sets the budget exactly)",
+            100.0 * noise,
+            100.0 * budget,
+            enc.budgets.len()
+        ));
+    } else if settings.max_error.is_some() && noise > budget {
+        messages.push(format!(
+            "{name}: the budget of {:.2}% is below the measurement's noise, estimated at up to \
+             {:.2}%: part of the file's bytes code that noise",
+            100.0 * budget,
+            100.0 * noise
+        ));
+    }
     if !enc.met {
         let msg = format!(
             "{name}: warped tables reach at best {:.3}% at the worst stored incidence, above the \
@@ -127,6 +160,7 @@ pub fn encode_warped_file(
         if matches!(meta, MetaLevel::Full) {
             put("max_error", budget.into());
             put("rel_error", ((worst * 1e5).round() / 1e5).into());
+            put("noise_floor", ((noise * 1e5).round() / 1e5).into());
         }
         for (k, v) in &settings.encoder.provenance {
             put(k, v.clone().into());
@@ -140,5 +174,7 @@ pub fn encode_warped_file(
         terms: enc.material.spectral.terms,
         input_bytes: bytes.len(),
         messages,
+        noise: enc.noise,
+        budgets: enc.budgets,
     }))
 }
