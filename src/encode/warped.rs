@@ -275,6 +275,9 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         held_out: None,
         warped: Some(Box::new(model)),
     };
+    // The version it is written as, so that the material reads back equal.
+    let mut material = material;
+    material.version_minor = crate::format::written_version(&material).0;
     material
         .validate()
         .map_err(|e| Error::Input(format!("warped tables: {e}")))?;
