@@ -221,13 +221,13 @@ impl Walk {
         if p / r > 0 {
             s += at(t, p - r);
         }
-        if p % r > 0 {
+        if !p.is_multiple_of(r) {
             s += at(t, p - 1);
         }
         if t >= self.k {
             s += at(t - self.k, p);
         }
-        if t % self.k > 0 {
+        if !t.is_multiple_of(self.k) {
             s += at(t - 1, p);
         }
         neighbour_class(s)
