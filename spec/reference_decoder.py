@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
-"""Independent reference reader and decoder of the .sbrdf format, version 1.5.
+"""Independent reference reader and decoder of the .sbrdf format, version 1.6.
 
 Version 1.1 adds to version 1.0 the wavelength range (HEAD flag bit 1, §3.1), the critical `FACT`
 chunk (the factor model, §3.7, EVALUATION.md "Factor model") and the ancillary `xval` chunk
 (held-out errors, §3.8); version 1.2 adds lobe kind 5, the anisotropic microfacet lobe
 (EVALUATION.md "Lobes", its blending in "Lobes by position"); version 1.3 the compact records
 (`RECS`, §3.9); version 1.4 the warped tables (`WARP`, §3.10, EVALUATION.md "Warped tables"),
-version 1.5 their wavelet transform (`WARP` layout 17),
+version 1.5 their wavelet transform (`WARP` layout 17), version 1.6 their range-coded payload
+(`WARP` layout bit 3),
 whose tables, warps and σ nodes are computed once when the file is opened. Files without them
 (every 1.0 file) are read and evaluated exactly as before.
 
@@ -385,6 +386,165 @@ def fact_features(wi, wo, ranges):
 
 
 # ---------------------------------------------------------------- the file
+
+class RangeDecoder:
+    """§3.10, "Range-coded payload": the binary range decoder (LZMA's, 12-bit probabilities)."""
+
+    def __init__(self, data, where):
+        self.data, self.where = data, where
+        if len(data) < 5:
+            raise malformed("%s: range-coded payload shorter than 5 bytes (§3.10)" % where)
+        if data[0] != 0:
+            raise malformed("%s: range-coded payload's first byte is %d, not 0 (§3.10)"
+                            % (where, data[0]))
+        self.code = int.from_bytes(data[1:5], "big")
+        self.range = 0xFFFFFFFF
+        self.pos = 5
+
+    def normalise(self):
+        while self.range < (1 << 24):
+            if self.pos >= len(self.data):
+                raise malformed("%s: range-coded payload ends early (§3.10)" % self.where)
+            self.range = (self.range << 8) & 0xFFFFFFFF
+            self.code = ((self.code << 8) | self.data[self.pos]) & 0xFFFFFFFF
+            self.pos += 1
+
+    def bit(self, models, i):
+        """An adaptive bit with the probability models[i] (of a 0, in units of 2^-12)."""
+        p = models[i]
+        bound = (self.range >> 12) * p
+        if self.code < bound:
+            self.range = bound
+            models[i] = p + ((4096 - p) >> 4)
+            b = 0
+        else:
+            self.code -= bound
+            self.range -= bound
+            models[i] = p - (p >> 4)
+            b = 1
+        self.normalise()
+        return b
+
+    def direct(self):
+        self.range >>= 1
+        if self.code >= self.range:
+            self.code -= self.range
+            b = 1
+        else:
+            b = 0
+        self.normalise()
+        return b
+
+
+class RangeIntegers:
+    """§3.10: one sequence's U[u][q] and E[e][q] models, and its integers."""
+
+    def __init__(self):
+        self.u = [[2048] * 5 for _ in range(4)]
+        self.e = [[2048] * 5 for _ in range(35)]
+
+    def get(self, dec, zero, zi, q):
+        if not dec.bit(zero, zi):
+            return 0
+        negative = dec.direct()
+        m = 0
+        while m < 4 and dec.bit(self.u[m], q):
+            m += 1
+        if m == 4:
+            n = 1
+            while dec.bit(self.e[n - 1], q):
+                n += 1
+                if n > 35:
+                    raise malformed("%s: range-coded integer longer than 35 Exp-Golomb bits "
+                                    "(§3.10)" % dec.where)
+            x = 1
+            for _ in range(n - 1):
+                x = 2 * x + dec.direct()
+            m = x + 3
+        return -(m + 1) if negative else m + 1
+
+
+def context_class(s):
+    """§3.10: 0 for 0, 1 for 1, 2 for 2–3, 3 for 4–7, 4 from 8."""
+    return 0 if s == 0 else 1 if s == 1 else 2 if s <= 3 else 3 if s <= 7 else 4
+
+
+def decode_range_payload(data, m, ndf_prec, tables, k, grid, transform, where):
+    """§3.10, "Range-coded payload": the M NDF values, the N·K steps and the N·K·R² integers
+    (each table in the transform's order, as the zlib payload holds them)."""
+    dec = RangeDecoder(data, where)
+    # 1. NDF: bit patterns, predicted linearly from the two before
+    seq, zero, q, pats = RangeIntegers(), [2048] * 5, 0, []
+    top = 0xFFFF if ndf_prec == 2 else 0xFFFFFFFF
+    for j in range(m):
+        res = seq.get(dec, zero, q, q)
+        q = context_class(abs(res))
+        pred = 0 if j == 0 else pats[0] if j == 1 else 2 * pats[j - 1] - pats[j - 2]
+        v = pred + res
+        if not 0 <= v <= top:
+            raise malformed("%s: NDF bit pattern %d out of range (§3.10)" % (where, v))
+        pats.append(v)
+    fmt = "<H" if ndf_prec == 2 else "<I"
+    ndf = [struct.unpack("<e" if ndf_prec == 2 else "<f", struct.pack(fmt, v))[0] for v in pats]
+    # 2. steps: binary32 patterns, each from the one before
+    seq, zero, q, last, steps = RangeIntegers(), [2048] * 5, 0, 0, []
+    for t in range(tables):
+        res = seq.get(dec, zero, q, q)
+        q = context_class(abs(res))
+        last += res
+        if not 0 <= last <= 0xFFFFFFFF:
+            raise malformed("%s: step bit pattern %d out of range (§3.10)" % (where, last))
+        steps.append(struct.unpack("<f", struct.pack("<I", last))[0])
+    # 3. tables, in the transform's order; contexts by frequency class and neighbours
+    R = grid
+    if transform == 0:
+        order = sorted(((a, b) for a in range(R) for b in range(R)),
+                       key=lambda ab: (ab[0] + ab[1], ab[0]))
+        bounds = (0, 1, 2, 3, 5, 8, 12, 18, 26)
+
+        def cls(a, b):
+            for j, t in enumerate(bounds):
+                if a + b <= t:
+                    return j
+            return 9
+    else:
+        band = wavelet_bands(R)
+        order = sorted(((a, b) for a in range(R) for b in range(R)),
+                       key=lambda ab: (band[ab[0]] + band[ab[1]], band[ab[0]],
+                                       band[ab[1]], ab[0], ab[1]))
+
+        def cls(a, b):
+            return band[a] + band[b]
+    classes = [cls(a, b) for a, b in order]
+    seq = RangeIntegers()
+    zero = [[2048] * 5 for _ in range(16)]
+    nat = [dict() for _ in range(tables)]  # (a, b) -> n, per table
+    ints = array("l")
+    for t in range(tables):
+        cur = nat[t]
+        prev_i = nat[t - k] if t >= k else None
+        prev_k = nat[t - 1] if t % k else None
+        for j, (a, b) in enumerate(order):
+            s = 0
+            if a >= 1:
+                s += abs(cur[(a - 1, b)])
+            if b >= 1:
+                s += abs(cur[(a, b - 1)])
+            if prev_i is not None:
+                s += abs(prev_i[(a, b)])
+            if prev_k is not None:
+                s += abs(prev_k[(a, b)])
+            q = context_class(s)
+            v = seq.get(dec, zero[classes[j]], q, q)
+            if not -(1 << 30) <= v < (1 << 30):
+                raise malformed("%s: payload integer outside [-2^30, 2^30-1] (§3.10)" % where)
+            cur[(a, b)] = v
+            ints.append(v)
+    if dec.pos != len(data):
+        raise malformed("%s: %d bytes after the range-coded payload (§3.10)"
+                        % (where, len(data) - dec.pos))
+    return ndf, steps, ints
+
 
 class Record:
     __slots__ = ("theta_i", "phi_i", "theta_p", "phi_p", "level", "terms", "sh", "lobes")
@@ -859,12 +1019,16 @@ class SbrdfFile:
             raise malformed("%s: shorter than its 12-byte fixed part (§3.10)" % where)
         layout, ndf_prec, grid, warp_grid, ndf_count = r.take("BBHHH")
         (sigma_scale,) = r.take("f")
-        if layout not in (1, 17):
+        if layout not in (1, 17, 9, 25):
             # §3.10 and §6: an unknown WARP layout makes the file unsupported
             raise unsupported("%s: unknown layout %d (§3.10)" % (where, layout))
-        if layout == 17 and self.minor < 5:
-            raise malformed("%s: layout 17 (the wavelet, 1.5) in a 1.%d file (§3.10)"
-                            % (where, self.minor))
+        if layout & 16 and self.minor < 5:
+            raise malformed("%s: layout %d (the wavelet, 1.5) in a 1.%d file (§3.10)"
+                            % (where, layout, self.minor))
+        ranged = bool(layout & 8)
+        if ranged and self.minor < 6:
+            raise malformed("%s: layout %d (range-coded, 1.6) in a 1.%d file (§3.10)"
+                            % (where, layout, self.minor))
         if ndf_prec not in (1, 2):
             # §3.10 and §6: an unknown NDF precision makes the file unsupported
             raise unsupported("%s: unknown NDF precision %d (§3.10)" % (where, ndf_prec))
@@ -877,7 +1041,8 @@ class SbrdfFile:
         if count > MAX_WARP_VALUES or n * warp_grid * warp_grid > MAX_WARP_VALUES:
             raise malformed("%s: N·K·R² = %d or N·G² = %d above 2^24 (§3.10)"
                             % (where, count, n * warp_grid * warp_grid))
-        fixed = 16 + ndf_size * ndf_count + 4 * n * k
+        # §3.10: with a range-coded payload the NDF and steps are in the payload
+        fixed = 16 if ranged else 16 + ndf_size * ndf_count + 4 * n * k
         if len(body) < fixed:
             raise malformed("%s: length %d, shorter than the %d bytes before the payload (§3.10)"
                             % (where, len(body), fixed))
@@ -887,15 +1052,25 @@ class SbrdfFile:
                             % (where, plen, len(body) - fixed))
         if not (math.isfinite(sigma_scale) and sigma_scale > 0):
             raise malformed("%s: sigma_scale %r not finite and > 0 (§3.10)" % (where, sigma_scale))
-        ndf = r.take("%d%s" % (ndf_count, "f" if ndf_prec == 1 else "e"), "ndf")
+        if ranged:
+            total = ndf_count + n * k + count
+            if total > 1600 * plen:
+                raise malformed("%s: a range-coded payload of %d bytes cannot code %d integers "
+                                "(§3.10)" % (where, plen, total))
+            ndf, steps, ints = decode_range_payload(
+                body[fixed:], ndf_count, ndf_prec, n * k, k, grid, layout >> 4, where)
+        else:
+            ndf = r.take("%d%s" % (ndf_count, "f" if ndf_prec == 1 else "e"), "ndf")
+            steps = r.take("%df" % (n * k), "steps")
+            ints = None
         # −0 is allowed (equal to +0) for NDF values and steps: −0.0 >= 0 holds
         if not all(math.isfinite(v) and v >= 0 for v in ndf) or not any(v > 0 for v in ndf):
             raise malformed("%s: an NDF value not finite or < 0, or none > 0 (§3.10)" % where)
-        steps = r.take("%df" % (n * k), "steps")
         if not all(math.isfinite(v) and v >= 0 for v in steps):
             raise malformed("%s: a step not finite or < 0 (§3.10)" % where)
-        ints = self.inflate_warp(body[fixed:], count, where)
-        return {"R": grid, "G": warp_grid, "M": ndf_count, "c": sigma_scale, "layout": layout,
+        if ints is None:
+            ints = self.inflate_warp(body[fixed:], count, where)
+        return {"R": grid, "G": warp_grid, "M": ndf_count, "c": sigma_scale, "layout": layout & 0xF7,
                 "ndf": list(ndf), "steps": list(steps), "ints": ints}
 
     @staticmethod

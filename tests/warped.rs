@@ -10,7 +10,7 @@ use sbrdf::encode::samples::{ReadOptions, RgbToSpectrum};
 use sbrdf::encode::warped::{encode_warped, WarpedInput, WarpedOptions, DEFAULT_MAX_ERROR};
 use sbrdf::io::rgl::{read_warped, RglBsdf};
 use sbrdf::io::synth::SpectrumTable;
-use sbrdf::model::warped::TableTransform;
+use sbrdf::model::warped::{PayloadCoding, TableTransform};
 use sbrdf::{write_material, Decoder};
 use std::path::{Path, PathBuf};
 
@@ -126,6 +126,7 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
             &input(name),
             &WarpedOptions {
                 noise_floor: false,
+                coding: PayloadCoding::Range,
                 max_error: DEFAULT_MAX_ERROR,
                 terms: None,
                 transform: None,
@@ -159,6 +160,7 @@ fn every_budget_is_met_and_bytes_fall_as_it_grows() {
         &input(satin),
         &WarpedOptions {
             noise_floor: false,
+            coding: PayloadCoding::Range,
             max_error: 0.0045,
             terms: None,
             transform: None,
@@ -179,6 +181,7 @@ fn budgets_are_met(name: &str, stated: [f64; 4]) {
             &inp,
             &WarpedOptions {
                 noise_floor: false,
+                coding: PayloadCoding::Range,
                 max_error: budget,
                 terms: None,
                 transform: None,
@@ -241,6 +244,7 @@ fn the_decoder_follows_the_measurement_between_its_nodes() {
             &input(name),
             &WarpedOptions {
                 noise_floor: false,
+                coding: PayloadCoding::Range,
                 max_error: DEFAULT_MAX_ERROR,
                 terms: None,
                 transform: None,
@@ -276,6 +280,7 @@ fn an_incidence_left_out_is_predicted_from_its_neighbours() {
                 &held,
                 &WarpedOptions {
                     noise_floor: false,
+                    coding: PayloadCoding::Range,
                     max_error: DEFAULT_MAX_ERROR,
                     terms: None,
                     transform: None,
@@ -379,6 +384,7 @@ fn each_transform_meets_the_budget_and_the_default_keeps_the_smaller_file() {
                 &inp,
                 &WarpedOptions {
                     noise_floor: false,
+                    coding: PayloadCoding::Range,
                     max_error: DEFAULT_MAX_ERROR,
                     terms: None,
                     transform,
@@ -390,17 +396,10 @@ fn each_transform_meets_the_budget_and_the_default_keeps_the_smaller_file() {
             if let Some(t) = transform {
                 assert_eq!(w.transform, t);
             }
-            // 1.4 for the DCT, 1.5 for the wavelet: the lowest version whose features it uses.
+            // Range-coded: 1.6 whatever the transform (deflated: 1.4 for the DCT, 1.5 for the
+            // wavelet, `format_1_5_keeps_zlib_and_1_4_the_dct_with_the_same_values`).
             let minor = u16::from_le_bytes([bytes[20], bytes[21]]);
-            assert_eq!(
-                minor,
-                if w.transform == TableTransform::Dct {
-                    4
-                } else {
-                    5
-                },
-                "{name}"
-            );
+            assert_eq!(minor, 6, "{name}");
             assert!(enc.met && enc.errors.iter().all(|&e| e <= DEFAULT_MAX_ERROR));
             // What is written decodes to the same tables (read back through the format).
             let back = sbrdf::read_material(&bytes, &sbrdf::Limits::default()).unwrap();
@@ -413,6 +412,113 @@ fn each_transform_meets_the_budget_and_the_default_keeps_the_smaller_file() {
         );
         assert_eq!(sizes[0], sizes[1].min(sizes[2]), "{name}");
     }
+}
+
+/// The same tables read from a file: everything but the payload's coding.
+fn tables_of(file: &str) -> sbrdf::model::warped::WarpedModel {
+    let bytes = std::fs::read(samples_dir().join("golden").join(file)).unwrap();
+    let m = sbrdf::read_material(&bytes, &sbrdf::Limits::default()).unwrap();
+    *m.warped.unwrap()
+}
+
+#[test]
+fn the_range_coded_golden_holds_the_deflated_goldens_tables_value_for_value() {
+    let (old, new) = (
+        tables_of("rgl_satin_warp_v15.sbrdf"),
+        tables_of("rgl_satin_warp_v16.sbrdf"),
+    );
+    assert_eq!(old.coding, PayloadCoding::Deflate);
+    assert_eq!(new.coding, PayloadCoding::Range);
+    assert_eq!(
+        old,
+        sbrdf::model::warped::WarpedModel {
+            coding: PayloadCoding::Deflate,
+            ..new.clone()
+        }
+    );
+    // And so they evaluate alike, bit for bit.
+    let open = |f: &str| {
+        Decoder::from_bytes(&std::fs::read(samples_dir().join("golden").join(f)).unwrap()).unwrap()
+    };
+    let (a, b) = (
+        open("rgl_satin_warp_v15.sbrdf"),
+        open("rgl_satin_warp_v16.sbrdf"),
+    );
+    for (ti, to, po) in [(0.0, 30.0, 10.0), (35.0, 40.0, 180.0), (70.0, 75.0, 5.0)] {
+        let (mut x, mut y) = ([0.0f32; 3], [0.0f32; 3]);
+        a.eval(unit(ti, 0.0), unit(to, po), &[450.0, 550.0, 650.0], &mut x);
+        b.eval(unit(ti, 0.0), unit(to, po), &[450.0, 550.0, 650.0], &mut y);
+        assert_eq!(x, y);
+    }
+    // 28% fewer bytes for the same values.
+    let len = |f: &str| {
+        std::fs::metadata(samples_dir().join("golden").join(f))
+            .unwrap()
+            .len()
+    };
+    assert!(len("rgl_satin_warp_v16.sbrdf") * 100 < 75 * len("rgl_satin_warp_v15.sbrdf"));
+}
+
+#[test]
+fn format_1_5_keeps_zlib_and_1_4_the_dct_with_the_same_values() {
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/rgl/satin_rosaline_rgb.bsdf");
+    let encode = |format: &str| {
+        let mut s = sbrdf::encode::settings::EncodeSettings::default();
+        s.set("rgb-to-spectrum", "jakob-hanika-2019").unwrap();
+        s.set("format", format).unwrap();
+        let o = sbrdf::io::rgl::encode_warped_file(std::slice::from_ref(&path), &s)
+            .unwrap()
+            .unwrap();
+        let m = sbrdf::read_material(&o.bytes, &sbrdf::Limits::default()).unwrap();
+        (m.version_minor, *m.warped.unwrap())
+    };
+    let (v6, new) = encode("1.6");
+    let (v5, old) = encode("1.5");
+    let (v4, dct) = encode("1.4");
+    assert_eq!((v6, v5, v4), (6, 5, 4));
+    assert_eq!(
+        (new.coding, old.coding, dct.coding),
+        (
+            PayloadCoding::Range,
+            PayloadCoding::Deflate,
+            PayloadCoding::Deflate
+        )
+    );
+    assert_eq!(
+        old,
+        sbrdf::model::warped::WarpedModel {
+            coding: PayloadCoding::Deflate,
+            ..new
+        }
+    );
+    assert_eq!(dct.transform, TableTransform::Dct);
+    let mut s = sbrdf::encode::settings::EncodeSettings::default();
+    s.set("rgb-to-spectrum", "jakob-hanika-2019").unwrap();
+    s.set("format", "1.3").unwrap();
+    let e = sbrdf::io::rgl::encode_warped_file(std::slice::from_ref(&path), &s).unwrap_err();
+    assert!(e.to_string().contains("need format 1.4"), "{e}");
+}
+
+#[test]
+fn a_range_coded_payload_is_refused_in_a_1_5_file() {
+    let good = std::fs::read(samples_dir().join("golden/rgl_satin_warp_v16.sbrdf")).unwrap();
+    assert!(Decoder::from_bytes(&good).is_ok());
+    let mut old = good.clone();
+    old[20] = 5;
+    let head_len = u32::from_le_bytes(old[10..14].try_into().unwrap()) as usize;
+    fix_crc(&mut old, 18, head_len);
+    let e = Decoder::from_bytes(&old).unwrap_err().to_string();
+    assert!(e.contains("1.6 feature") && e.contains("malformed"), "{e}");
+    // A payload too short for its integers (1600 a byte at most) is refused before decoding.
+    let (at, len) = warp_chunk(&good);
+    let mut short = good[..at + 16 + 5].to_vec();
+    short.extend_from_slice(&good[at + len..]);
+    short[at - 8..at - 4].copy_from_slice(&21u32.to_le_bytes());
+    short[at + 12..at + 16].copy_from_slice(&5u32.to_le_bytes());
+    fix_crc(&mut short, at, 21);
+    let e = Decoder::from_bytes(&short).unwrap_err().to_string();
+    assert!(e.contains("cannot hold") && e.contains("malformed"), "{e}");
 }
 
 #[test]
@@ -460,17 +566,23 @@ fn fix_crc(bytes: &mut [u8], at: usize, len: usize) {
 #[test]
 fn damage_behind_a_valid_crc_is_refused_or_decoded_never_a_panic() {
     for golden in ["rgl_paper_warp_v14.sbrdf", "rgl_satin_warp_v15.sbrdf"] {
-        damage_behind_a_valid_crc(golden);
+        damage_behind_a_valid_crc(golden, 12 + 2 * 128 + 4 * 24 + 4, true);
+    }
+    // Range-coded (1.6): the NDF and steps are in the payload, and the payload has no check of
+    // its own (the chunk's CRC is what catches accidental damage), so a flipped bit may decode
+    // to other values: finite ones, never a panic.
+    for golden in ["rgl_satin_dct_warp_v16.sbrdf", "rgl_satin_warp_v16.sbrdf"] {
+        damage_behind_a_valid_crc(golden, 16, false);
     }
 }
 
-/// Both golden files hold 8 incidences × 3 terms and 128 f16 NDF nodes.
-fn damage_behind_a_valid_crc(golden: &str) {
+/// The golden files hold 8 incidences × 3 terms and 128 f16 NDF nodes; `header` bytes come
+/// before the payload; `checked`: the payload's coding checks itself (zlib's Adler-32).
+fn damage_behind_a_valid_crc(golden: &str, header: usize, checked: bool) {
     let good = std::fs::read(samples_dir().join("golden").join(golden)).unwrap();
     let (at, len) = warp_chunk(&good);
     let mut refused = 0;
     // Every header and NDF byte, and a spread of payload bytes, each flipped.
-    let header = 12 + 2 * 128 + 4 * 24 + 4;
     let spots: Vec<usize> = (0..header).chain((header..len).step_by(7)).collect();
     for &i in &spots {
         for mask in [0x01u8, 0x80] {
@@ -495,7 +607,7 @@ fn damage_behind_a_valid_crc(golden: &str) {
     }
     // Payload damage is caught by zlib's own checks nearly always.
     assert!(
-        refused > spots.len() / 2,
+        !checked || refused > spots.len() / 2,
         "{refused} of {} refused",
         2 * spots.len()
     );
@@ -542,6 +654,7 @@ fn a_file_written_and_read_back_is_the_same_material_and_bytes() {
         &input("cc_ibiza_sunset"),
         &WarpedOptions {
             noise_floor: false,
+            coding: PayloadCoding::Range,
             max_error: 0.02,
             terms: None,
             transform: None,

@@ -207,7 +207,10 @@ pub fn parse_format(s: &str) -> Result<u16> {
         "1.1" => Ok(1),
         "1.2" => Ok(2),
         "1.3" => Ok(3),
-        _ => Err(bad("format", s, "1.0, 1.1, 1.2 or 1.3")),
+        "1.4" => Ok(4),
+        "1.5" => Ok(5),
+        "1.6" => Ok(6),
+        _ => Err(bad("format", s, "1.0 to 1.6")),
     }
 }
 

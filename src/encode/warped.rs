@@ -17,7 +17,7 @@ use crate::encode::basis::sign_fixed;
 use crate::error::{Error, Result};
 use crate::model::material::{IncidentRecord, Material};
 use crate::model::spectral::{BasisTable, SpectralBasis, SpectralSpace};
-use crate::model::warped::{dct2, idct2, TableTransform, WarpedModel, MAX_LEVEL};
+use crate::model::warped::{dct2, idct2, PayloadCoding, TableTransform, WarpedModel, MAX_LEVEL};
 use crate::model::Precision;
 use half::f16;
 use nalgebra::{DMatrix, SymmetricEigen};
@@ -79,6 +79,9 @@ pub struct WarpedOptions {
     /// The tables' transform; `None`: whichever gives the smaller file (`Some(Dct)` writes a
     /// file that 1.4 decoders read).
     pub transform: Option<TableTransform>,
+    /// How the integers are coded: the range coder (format 1.6, the default), or DEFLATE for
+    /// files that 1.4 and 1.5 decoders read.
+    pub coding: PayloadCoding,
     /// Raise each incidence's budget to the measurement's estimated noise there
     /// ([`crate::encode::noise`]) where that is higher: what a default budget does, so that
     /// no bytes go to coding noise. An explicit budget leaves it off and means what it says.
@@ -212,6 +215,7 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
     let (ndf_precision, ndf) = ndf_stored(&input.ndf);
     let shell = WarpedModel {
         transform: TableTransform::Dct,
+        coding: opts.coding,
         grid: r,
         warp_grid: input.warp_grid,
         sigma_scale: sigma_scale(input),
@@ -224,7 +228,7 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         Some(t) => code(t),
         None => {
             let (dct, wavelet) = (code(TableTransform::Dct), code(TableTransform::Wavelet53));
-            let key = |c: &Coded| (!c.met, crate::format::warp_payload_len(&c.model(&shell)));
+            let key = |c: &Coded| (!c.met, crate::format::warp_payload_len(&c.model(&shell), k));
             // Budget met first, then bytes; the DCT (readable by 1.4 decoders) kept on a tie.
             if key(&wavelet) < key(&dct) {
                 wavelet
@@ -271,6 +275,9 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         held_out: None,
         warped: Some(Box::new(model)),
     };
+    // The version it is written as, so that the material reads back equal.
+    let mut material = material;
+    material.version_minor = crate::format::written_version(&material).0;
     material
         .validate()
         .map_err(|e| Error::Input(format!("warped tables: {e}")))?;

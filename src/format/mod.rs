@@ -1,4 +1,4 @@
-//! Bytes: the `.sbrdf` format, versions 1.0 to 1.5 — signature, chunk types, limits; the writer and
+//! Bytes: the `.sbrdf` format, versions 1.0 to 1.6 — signature, chunk types, limits; the writer and
 //! the reader. Uses [`crate::model`] only.
 //!
 //! Normative text: `spec/FORMAT.md`. Layout: a 10-byte signature, then chunks of
@@ -7,18 +7,20 @@
 //! one that readers may skip.
 
 mod fields;
+mod range_coder;
 mod read;
 mod read_records;
 mod warp_chunk;
+mod warp_payload;
 mod write;
 
 pub use read::read_material;
 pub use write::{f16_scale, quantize_record_f16, write_material, written_version};
 
-/// The bytes of a `WARP` chunk's zlib payload for these tables, as the writer writes it (the
-/// encoder compares transforms by it).
-pub fn warp_payload_len(w: &crate::model::warped::WarpedModel) -> usize {
-    miniz_oxide::deflate::compress_to_vec_zlib(&warp_chunk::payload_bytes(w), 10).len()
+/// The bytes of a `WARP` chunk's payload for these tables of `k` spectral terms, as the writer
+/// writes it in the model's coding (the encoder compares transforms by it).
+pub fn warp_payload_len(w: &crate::model::warped::WarpedModel, k: usize) -> usize {
+    warp_chunk::payload(w, k).len()
 }
 
 /// The first ten bytes of every file. 0x89 catches 7-bit transports, "\r\n" and "\n" catch
@@ -27,13 +29,14 @@ pub const SIGNATURE: [u8; 10] = [0x89, b'S', b'B', b'R', b'D', b'F', 0x0D, 0x0A,
 /// The major version this crate reads and writes; a file with another major version is refused
 /// as unsupported.
 pub const VERSION_MAJOR: u16 = 1;
-/// The newest minor version this crate reads and writes. A file is written as 1.5 when its
+/// The newest minor version this crate reads and writes. A file is written as 1.6 when its
+/// warped tables' payload is range-coded, as 1.5 when its
 /// warped tables are coded in the wavelet transform, as 1.4 when it holds warped tables
 /// (`WARP`) in the DCT, as 1.3 when its
 /// records are compact (one `RECS` chunk), as 1.2 when it holds an anisotropic microfacet lobe
 /// (kind 5), as 1.1 when it uses a 1.1 feature (a wavelength range, [`FLAG_WAVELENGTH_RANGE`],
 /// or a factor model, `FACT`); otherwise it is 1.0, byte for byte.
-pub const VERSION_MINOR: u16 = 5;
+pub const VERSION_MINOR: u16 = 6;
 
 /// `HEAD` flag bit 0: only φi = 0 is stored; other azimuths are answered by rotation.
 pub const FLAG_ISOTROPIC: u32 = 1;
@@ -92,6 +95,9 @@ pub const VERSION_MINOR_WARP: u16 = 4;
 /// The minor version of files whose warped tables are coded in the CDF 5/3 wavelet (`WARP`
 /// transform code 1).
 pub const VERSION_MINOR_WAVELET: u16 = 5;
+/// The minor version of files whose warped tables' integers are range-coded (`WARP` layout
+/// bit 3) instead of deflated.
+pub const VERSION_MINOR_RANGE: u16 = 6;
 
 pub(crate) const HEAD_FIXED: usize = 40;
 pub(crate) const RECD_FIXED: usize = 40;

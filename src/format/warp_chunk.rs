@@ -3,14 +3,17 @@
 
 use super::fields::Fields;
 use crate::error::Result;
-use crate::model::warped::{TableTransform, WarpedModel, MAX_GRID, MAX_NDF, MAX_WARP_GRID};
+use crate::model::warped::{PayloadCoding, TableTransform, WarpedModel};
+use crate::model::warped::{MAX_GRID, MAX_NDF, MAX_WARP_GRID};
 use crate::model::warped::{MAX_LEVEL, MAX_WARP_VALUES, MIN_WARP_GRID};
 use crate::model::Precision;
 use miniz_oxide::inflate::core::{decompress, inflate_flags, DecompressorOxide};
 use miniz_oxide::inflate::TINFLStatus;
 
-/// The only arrangement defined (the low four bits of `layout`): isotropic tables.
+/// The only arrangement defined (the low three bits of `layout`): isotropic tables.
 pub(crate) const LAYOUT_ISOTROPIC: u8 = 1;
+/// `layout` bit 3 (format 1.6): the payload is range-coded (`super::warp_levels`), not zlib.
+pub(crate) const LAYOUT_RANGE_CODED: u8 = 8;
 
 /// DEFLATE never expands more than 1032:1; with the zlib header and trailer a payload of P bytes
 /// cannot inflate past this, which bounds the output buffer by the bytes present.
@@ -27,10 +30,21 @@ pub(super) fn read_warped(
     limits: &super::Limits,
 ) -> Result<WarpedModel> {
     let layout = f.u8("layout")?;
-    if layout & 0x0F != LAYOUT_ISOTROPIC {
+    if layout & 0x07 != LAYOUT_ISOTROPIC {
         return Err(f.unsupported(format!(
             "unknown warped-table arrangement {} (layout {layout:#04x})",
-            layout & 0x0F
+            layout & 0x07
+        )));
+    }
+    let coding = if layout & LAYOUT_RANGE_CODED != 0 {
+        PayloadCoding::Range
+    } else {
+        PayloadCoding::Deflate
+    };
+    if coding == PayloadCoding::Range && minor < super::VERSION_MINOR_RANGE {
+        return Err(f.malformed(format!(
+            "a range-coded payload (layout {layout:#04x}) is a 1.{} feature, in a 1.{minor} file",
+            super::VERSION_MINOR_RANGE
         )));
     }
     let transform = TableTransform::from_code(layout >> 4).ok_or_else(|| {
@@ -76,19 +90,27 @@ pub(super) fn read_warped(
         )));
     }
     let sigma_scale = f.f32("sigma_scale")?;
-    let need = ndf_precision.bytes() * m + 4 * n * k + 4;
-    if f.remaining() < need {
+    // Format 1.6 codes the NDF and steps in the payload too; before it they are stored raw.
+    let raw = match coding {
+        PayloadCoding::Deflate => ndf_precision.bytes() * m + 4 * n * k,
+        PayloadCoding::Range => 0,
+    };
+    if f.remaining() < raw + 4 {
         return Err(f.malformed(format!(
-            "the NDF, steps and payload length need {need} bytes, the chunk has {} left",
+            "the NDF, steps and payload length need {} bytes, the chunk has {} left",
+            raw + 4,
             f.remaining()
         )));
     }
-    let ndf = (0..m)
-        .map(|_| f.stored(ndf_precision, 1.0, "ndf"))
-        .collect::<Result<Vec<_>>>()?;
-    let steps = (0..n * k)
-        .map(|_| f.f32("step"))
-        .collect::<Result<Vec<_>>>()?;
+    let (mut ndf, mut steps) = (Vec::new(), Vec::new());
+    if coding == PayloadCoding::Deflate {
+        ndf = (0..m)
+            .map(|_| f.stored(ndf_precision, 1.0, "ndf"))
+            .collect::<Result<Vec<_>>>()?;
+        steps = (0..n * k)
+            .map(|_| f.f32("step"))
+            .collect::<Result<Vec<_>>>()?;
+    }
     let p = f.u32("payload_length")? as usize;
     if p == 0 || p != f.remaining() {
         return Err(f.malformed(format!(
@@ -98,20 +120,46 @@ pub(super) fn read_warped(
     }
     let at = f.at();
     let payload = f.take(p, "payload")?;
-    let bound = (5 * values as usize).min(inflate_bound(p));
-    let bytes = inflate(payload, bound).map_err(|message| crate::error::Error::Format {
+    let format_error = |message| crate::error::Error::Format {
         at: at.clone(),
         message,
-    })?;
-    let levels = varints(&bytes, values as usize, r, transform).map_err(|message| {
-        crate::error::Error::Format {
-            at: at.clone(),
-            message,
+    };
+    let levels = match coding {
+        PayloadCoding::Deflate => {
+            let bound = (5 * values as usize).min(inflate_bound(p));
+            inflate(payload, bound)
+                .and_then(|b| varints(&b, values as usize, r, transform))
+                .map_err(format_error)?
         }
-    })?;
+        PayloadCoding::Range => {
+            // Each coded bit costs at least −log2(4081/4096) = 1/189 of a bit, so P bytes hold
+            // at most 1512·P decisions: more integers than 1600·P cannot be there, which bounds
+            // what is allocated by the bytes present.
+            let integers = m as u64 + (n * k) as u64 + values;
+            if integers > 1600 * p as u64 {
+                return Err(format_error(format!(
+                    "a range-coded payload of {p} bytes cannot hold {integers} integers \
+                     (at most 1600 a byte)"
+                )));
+            }
+            let decoded = super::warp_payload::decode_payload(
+                payload,
+                m,
+                ndf_precision,
+                n * k,
+                k,
+                r,
+                transform,
+            )
+            .map_err(format_error)?;
+            (ndf, steps) = (decoded.ndf, decoded.steps);
+            decoded.levels
+        }
+    };
     f.finish()?;
     Ok(WarpedModel {
         transform,
+        coding,
         grid: r,
         warp_grid: g,
         sigma_scale,
@@ -217,28 +265,52 @@ fn varints(
     Ok(out)
 }
 
-/// The data of a `WARP` chunk.
-pub(super) fn warp_chunk(w: &WarpedModel) -> Vec<u8> {
+/// The data of a `WARP` chunk of a material of `k` spectral terms.
+pub(super) fn warp_chunk(w: &WarpedModel, k: usize) -> Vec<u8> {
     let mut d = Vec::new();
-    d.push(LAYOUT_ISOTROPIC | w.transform.code() << 4);
+    let coded = match w.coding {
+        PayloadCoding::Deflate => 0,
+        PayloadCoding::Range => LAYOUT_RANGE_CODED,
+    };
+    d.push(LAYOUT_ISOTROPIC | coded | w.transform.code() << 4);
     d.push(w.ndf_precision.code());
     d.extend_from_slice(&(w.grid as u16).to_le_bytes());
     d.extend_from_slice(&(w.warp_grid as u16).to_le_bytes());
     d.extend_from_slice(&(w.ndf.len() as u16).to_le_bytes());
     d.extend_from_slice(&w.sigma_scale.to_le_bytes());
-    for v in &w.ndf {
-        match w.ndf_precision {
-            Precision::F32 => d.extend_from_slice(&v.to_le_bytes()),
-            Precision::F16 => d.extend_from_slice(&half::f16::from_f32(*v).to_le_bytes()),
+    if w.coding == PayloadCoding::Deflate {
+        for v in &w.ndf {
+            match w.ndf_precision {
+                Precision::F32 => d.extend_from_slice(&v.to_le_bytes()),
+                Precision::F16 => d.extend_from_slice(&half::f16::from_f32(*v).to_le_bytes()),
+            }
+        }
+        for v in &w.steps {
+            d.extend_from_slice(&v.to_le_bytes());
         }
     }
-    for v in &w.steps {
-        d.extend_from_slice(&v.to_le_bytes());
-    }
-    let payload = miniz_oxide::deflate::compress_to_vec_zlib(&payload_bytes(w), 10);
+    let payload = payload(w, k);
     d.extend_from_slice(&(payload.len() as u32).to_le_bytes());
     d.extend_from_slice(&payload);
     d
+}
+
+/// The payload as the model's coding writes it, for tables of `k` spectral terms.
+pub(crate) fn payload(w: &WarpedModel, k: usize) -> Vec<u8> {
+    match w.coding {
+        PayloadCoding::Deflate => miniz_oxide::deflate::compress_to_vec_zlib(&payload_bytes(w), 10),
+        PayloadCoding::Range => super::warp_payload::encode_payload(
+            &super::warp_payload::Payload {
+                ndf: w.ndf.clone(),
+                steps: w.steps.clone(),
+                levels: w.levels.clone(),
+            },
+            w.ndf_precision,
+            k,
+            w.grid,
+            w.transform,
+        ),
+    }
 }
 
 /// The inflated payload: every table's integers in the transform's order, zigzag LEB128.

@@ -5,7 +5,7 @@ use crate::error::{Error, Result};
 use crate::model::factor::FactorModel;
 use crate::model::material::*;
 use crate::model::sh::sh_count;
-use crate::model::warped::TableTransform;
+use crate::model::warped::{PayloadCoding, TableTransform};
 use crate::model::Precision;
 use half::f16;
 
@@ -62,16 +62,17 @@ fn push_chunk(out: &mut Vec<u8>, kind: [u8; 4], data: &[u8]) {
 /// its wavelengths are evenly spaced; a factor model (`FACT`) is a 1.1 feature and an
 /// anisotropic lobe (kind 5) a 1.2 feature whatever the material asks. Compact records
 /// (`RECS`, 1.3) are used exactly when the material allows 1.3; warped tables (`WARP`) make a
-/// file 1.4, 1.5 with the wavelet transform. A file without 1.1 features is written as 1.0,
+/// file 1.4, 1.5 with the wavelet transform, 1.6 with a range-coded payload. A file without 1.1 features is written as 1.0,
 /// byte for byte. Reading the file back gives this minor version.
 pub fn written_version(m: &Material) -> (u16, bool) {
     let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
     if let Some(w) = &m.warped {
         // Warped tables are a 1.4 feature whatever the material asks, as FACT is 1.1's; their
         // wavelet transform a 1.5 one.
-        let minor = match w.transform {
-            TableTransform::Dct => VERSION_MINOR_WARP,
-            TableTransform::Wavelet53 => VERSION_MINOR_WAVELET,
+        let minor = match (w.coding, w.transform) {
+            (PayloadCoding::Range, _) => VERSION_MINOR_RANGE,
+            (_, TableTransform::Dct) => VERSION_MINOR_WARP,
+            (_, TableTransform::Wavelet53) => VERSION_MINOR_WAVELET,
         };
         return (minor, is_wavelength_range(&m.wavelengths));
     }
@@ -162,7 +163,7 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
         push_chunk(&mut out, CHUNK_FACT, &factor_chunk(f));
     }
     if let Some(w) = &m.warped {
-        push_chunk(&mut out, CHUNK_WARP, &super::warp_chunk::warp_chunk(w));
+        push_chunk(&mut out, CHUNK_WARP, &super::warp_chunk::warp_chunk(w, k));
     }
     if let Some(meta) = &m.metadata {
         push_chunk(&mut out, CHUNK_META, meta.as_bytes());

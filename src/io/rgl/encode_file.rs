@@ -8,6 +8,8 @@ use crate::encode::encoder::MetaLevel;
 use crate::encode::settings::{EncodeSettings, WarpedChoice};
 use crate::encode::warped::{encode_warped, WarpedOptions, DEFAULT_MAX_ERROR};
 use crate::error::{Error, Result};
+use crate::format::{VERSION_MINOR_RANGE, VERSION_MINOR_WARP, VERSION_MINOR_WAVELET};
+use crate::model::warped::{PayloadCoding, TableTransform};
 use std::path::PathBuf;
 
 /// What encoding one RGL file as warped tables gave.
@@ -94,10 +96,34 @@ pub fn encode_warped_file(
         Err(_) => return Ok(None),
     };
     let budget = settings.max_error.unwrap_or(DEFAULT_MAX_ERROR);
+    // `--format 1.4` / `1.5`: what decoders of that version read (DEFLATE; 1.4: the DCT only).
+    let minor = settings.encoder.format_minor;
+    if minor < VERSION_MINOR_WARP {
+        return Err(Error::Parameter(format!(
+            "{name}: warped tables need format 1.{VERSION_MINOR_WARP} or later (--format 1.{minor} \
+             was asked)"
+        )));
+    }
+    let transform = match settings.transform {
+        Some(TableTransform::Wavelet53) if minor < VERSION_MINOR_WAVELET => {
+            return Err(Error::Parameter(format!(
+                "--transform wavelet needs format 1.{VERSION_MINOR_WAVELET} or later (--format \
+                 1.{minor} was asked)"
+            )))
+        }
+        None if minor < VERSION_MINOR_WAVELET => Some(TableTransform::Dct),
+        t => t,
+    };
+    let coding = if minor >= VERSION_MINOR_RANGE {
+        PayloadCoding::Range
+    } else {
+        PayloadCoding::Deflate
+    };
     let opts = WarpedOptions {
         max_error: budget,
         terms: settings.encoder.terms,
-        transform: settings.transform,
+        transform,
+        coding,
         // A default budget never codes below the measurement's own noise; an explicit one
         // means what it says.
         noise_floor: settings.max_error.is_none(),
