@@ -749,11 +749,14 @@ class SbrdfFile:
         if len(body) < 4:
             raise malformed("%s: too short (§3.2)" % where)
         prec = body[0]
-        if prec not in (1, 2):
+        if prec not in (1, 2, 3):
             raise unsupported("%s: unknown precision %d (§3.2)" % (where, prec))
         if any(body[1:4]):
             raise malformed("%s: non-zero reserved byte (§3.2)" % where)
         w = len(self.wavelengths)
+        if prec == 3:
+            self.basis_values = self.parse_quantised_basis(body, w, where)
+            return
         s = 4 if prec == 1 else 2
         if len(body) != 4 + self.k * w * s:
             raise malformed("%s: length %d, layout needs %d (§3.2)" % (where, len(body), 4 + self.k * w * s))
@@ -761,6 +764,40 @@ class SbrdfFile:
         if not all(math.isfinite(v) for v in vals):
             raise malformed("%s: a basis value is not finite (§3.2)" % where)
         self.basis_values = [list(vals[i * w:(i + 1) * w]) for i in range(self.k)]
+
+    def parse_quantised_basis(self, body, w, where):
+        """§3.2, precision 3 (version 1.6): K exponents, then the range-coded integers of
+        each function along the wavelengths, each predicted from the two before it in its row
+        (0, then the first, then linearly), the residuals one sequence as §3.10 codes the NDF's."""
+        if self.minor < 6:
+            raise malformed("%s: a quantised basis in a 1.%d file (§3.2)" % (where, self.minor))
+        k = self.k
+        if len(body) < 4 + k:
+            raise malformed("%s: too short for %d exponents (§3.2)" % (where, k))
+        exps = struct.unpack_from("<%db" % k, body, 4)
+        if any(e > 103 for e in exps):
+            raise malformed("%s: a basis exponent above 103 (§3.2)" % where)
+        stream = body[4 + k:]
+        if k * w > 1600 * len(stream):
+            raise malformed("%s: %d integers cannot be coded in %d bytes (§3.2, §8)"
+                            % (where, k * w, len(stream)))
+        dec = RangeDecoder(stream, where)
+        seq, zero, q, rows = RangeIntegers(), [2048] * 5, 0, []
+        for e in exps:
+            n = []
+            for j in range(w):
+                res = seq.get(dec, zero, q, q)
+                q = context_class(abs(res))
+                pred = 0 if j == 0 else n[0] if j == 1 else 2 * n[j - 1] - n[j - 2]
+                v = pred + res
+                if abs(v) >= 1 << 24:
+                    raise malformed("%s: basis integer %d beyond 2^24 - 1 (§3.2)" % (where, v))
+                n.append(v)
+            rows.append([math.ldexp(v, e) for v in n])
+        if dec.pos != len(stream):
+            raise malformed("%s: %d bytes after the basis stream (§3.2)"
+                            % (where, len(stream) - dec.pos))
+        return rows
 
     def parse_recd(self, body, where):
         r = Reader(body, where)

@@ -485,13 +485,25 @@ fn format_1_5_keeps_zlib_and_1_4_the_dct_with_the_same_values() {
             PayloadCoding::Deflate
         )
     );
+    // The same warp; the tables differ by the basis they are fitted to (1.6 stores it
+    // quantised, 1.5 in f16), so only the layout is compared here.
     assert_eq!(
-        old,
-        sbrdf::model::warped::WarpedModel {
-            coding: PayloadCoding::Deflate,
-            ..new
-        }
+        (
+            &old.ndf,
+            old.grid,
+            old.warp_grid,
+            old.sigma_scale,
+            old.transform
+        ),
+        (
+            &new.ndf,
+            new.grid,
+            new.warp_grid,
+            new.sigma_scale,
+            new.transform
+        )
     );
+    assert_eq!(old.levels.len(), new.levels.len());
     assert_eq!(dct.transform, TableTransform::Dct);
     let mut s = sbrdf::encode::settings::EncodeSettings::default();
     s.set("rgb-to-spectrum", "jakob-hanika-2019").unwrap();
@@ -724,4 +736,118 @@ fn the_compact_form_is_the_exact_one_within_a_fraction_of_the_stored_error() {
         checked += 1;
     }
     assert!(checked >= 3, "{checked} golden files with warped tables");
+}
+
+/// The SBAS chunk of a file: (offset of its data, its length).
+fn sbas_chunk(bytes: &[u8]) -> (usize, usize) {
+    let mut p = 10;
+    while p + 12 <= bytes.len() {
+        let len = u32::from_le_bytes(bytes[p..p + 4].try_into().unwrap()) as usize;
+        if &bytes[p + 4..p + 8] == b"SBAS" {
+            return (p + 8, len);
+        }
+        p += 12 + len;
+    }
+    panic!("no SBAS chunk");
+}
+
+#[test]
+fn a_quantised_basis_holds_the_same_colours_in_a_third_of_the_bytes() {
+    // Format 1.6 stores the basis as power-of-two-gridded integers, range-coded (FORMAT.md
+    // §3.2, precision 3); --format 1.5 keeps f16. The tables are fitted to the basis as
+    // stored, so both files meet the same budget on the measured colours.
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/rgl/paper_white_rgb.bsdf");
+    let mut files = Vec::new();
+    for format in ["1.6", "1.5"] {
+        let mut s = sbrdf::encode::settings::EncodeSettings::default();
+        s.set("rgb-to-spectrum", "jakob-hanika-2019").unwrap();
+        s.set("format", format).unwrap();
+        let out = sbrdf::io::rgl::encode_warped_file(std::slice::from_ref(&path), &s)
+            .unwrap()
+            .unwrap();
+        files.push(out);
+    }
+    let (new, old) = (&files[0].bytes, &files[1].bytes);
+    let (at, len) = sbas_chunk(new);
+    let (old_at, old_len) = sbas_chunk(old);
+    assert_eq!(new[at], 3, "precision code 3 in 1.6");
+    assert_eq!(old[old_at], 2, "f16 in 1.5");
+    assert_eq!(old_len, 4 + 3 * 41 * 2);
+    assert!(
+        len * 3 < old_len,
+        "quantised SBAS {len} bytes, f16 {old_len}"
+    );
+    for out in &files {
+        assert!(out.errors.iter().all(|&e| e <= 0.01), "{:?}", out.errors);
+    }
+    // Every value is an integer times its function's power of two, and reads back exactly.
+    let m = sbrdf::read_material(new, &sbrdf::Limits::default()).unwrap();
+    let table = m.spectral.table.as_ref().unwrap();
+    assert_eq!(
+        sbrdf::write_material(&m).unwrap(),
+        *new,
+        "read and written back unchanged"
+    );
+    let sbrdf::model::basis_storage::BasisStorage::Quantised { exponents } = &table.storage else {
+        panic!("{:?}", table.storage)
+    };
+    for (k, row) in table.values.chunks(41).enumerate() {
+        let step = 2f64.powi(exponents[k] as i32);
+        let largest = row.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        assert!(row.iter().all(|v| (v / step).fract() == 0.0));
+        // 8 bits below the largest value (an RGB file's stand-in spectra).
+        assert!(
+            largest / step > 127.0 && largest / step <= 256.0,
+            "{}",
+            largest / step
+        );
+    }
+}
+
+#[test]
+fn a_damaged_quantised_basis_is_refused_with_its_reason() {
+    let good = std::fs::read(samples_dir().join("golden/rgl_paper_qbasis_v16.sbrdf")).unwrap();
+    assert!(Decoder::from_bytes(&good).is_ok());
+    let (at, len) = sbas_chunk(&good);
+    assert_eq!(good[at], 3);
+    let refused = |b: &[u8]| Decoder::from_bytes(b).unwrap_err().to_string();
+    // An exponent above 103 (2^104 · n overflows f32 for large n).
+    let mut b = good.clone();
+    b[at + 4] = 104;
+    fix_crc(&mut b, at, len);
+    let e = refused(&b);
+    assert!(e.contains("exponent 104") && e.contains("malformed"), "{e}");
+    // In a 1.5 file: a 1.6 feature.
+    let mut b = good.clone();
+    b[20] = 5;
+    let head_len = u32::from_le_bytes(b[10..14].try_into().unwrap()) as usize;
+    fix_crc(&mut b, 18, head_len);
+    let e = refused(&b);
+    assert!(e.contains("1.6 feature") && e.contains("malformed"), "{e}");
+    // The stream cut short, or a byte after its last integer (the chunk re-framed).
+    for cut in [-6i64, 1] {
+        let new_len = (len as i64 + cut) as usize;
+        let mut b = good[..at].to_vec();
+        if cut < 0 {
+            b.extend_from_slice(&good[at..at + new_len]);
+        } else {
+            b.extend_from_slice(&good[at..at + len]);
+            b.push(0);
+        }
+        b.extend_from_slice(&[0; 4]);
+        b.extend_from_slice(&good[at + len + 4..]);
+        b[at - 8..at - 4].copy_from_slice(&(new_len as u32).to_le_bytes());
+        fix_crc(&mut b, at, new_len);
+        let e = refused(&b);
+        assert!(e.contains("malformed") && e.contains("SBAS"), "{cut}: {e}");
+    }
+    // A stream too short for K·W integers (1600 a byte) is refused before decoding: here none.
+    let mut b = good[..at + 4 + 3].to_vec();
+    b.extend_from_slice(&[0; 4]);
+    b.extend_from_slice(&good[at + len + 4..]);
+    b[at - 8..at - 4].copy_from_slice(&7u32.to_le_bytes());
+    fix_crc(&mut b, at, 7);
+    let e = refused(&b);
+    assert!(e.contains("cannot be coded in 0 bytes"), "{e}");
 }

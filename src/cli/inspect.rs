@@ -103,11 +103,16 @@ pub fn cmd_info(a: InfoArgs) -> Result<()> {
         m.version_minor
     );
     println!(
-        "spectral basis: {}, {} terms over [{}, {}] nm",
+        "spectral basis: {}, {} terms over [{}, {}] nm{}",
         m.spectral.basis.name(),
         m.spectral.terms,
         m.spectral.lambda_min,
-        m.spectral.lambda_max
+        m.spectral.lambda_max,
+        m.spectral
+            .table
+            .as_ref()
+            .map(|t| format!(", stored {}", t.storage.name()))
+            .unwrap_or_default()
     );
     println!(
         "wavelengths:    {} samples, {}–{} nm",

@@ -3,6 +3,7 @@
 //! many terms a basis supports on the samples.
 
 use crate::encode::samples::SampleSet;
+use crate::model::basis_storage::BasisStorage;
 use crate::model::spectral::{BasisTable, SpectralBasis, SpectralSpace};
 use crate::model::Precision;
 
@@ -124,7 +125,7 @@ pub(crate) fn rounded_table(
     BasisTable {
         nodes: set.wavelengths.iter().map(|&l| l as f32 as f64).collect(),
         values,
-        precision,
+        storage: BasisStorage::Float(precision),
     }
 }
 

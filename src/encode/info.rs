@@ -37,6 +37,7 @@ pub fn to_json(m: &Material, file: &str, bytes: u64) -> serde_json::Value {
         "bytes": bytes,
         "format_version": format!("{}.{}", crate::format::VERSION_MAJOR, m.version_minor),
         "spectral_basis": m.spectral.basis.name(),
+        "basis_storage": m.spectral.table.as_ref().map(|t| t.storage.name()),
         "terms": m.spectral.terms,
         "lambda_min": m.spectral.lambda_min,
         "lambda_max": m.spectral.lambda_max,

@@ -14,6 +14,7 @@
 
 use crate::decode::decoder::Decoder;
 use crate::error::{Error, Result};
+use crate::model::basis_storage::BasisStorage;
 use crate::model::material::{DirectionSet, IncidentRecord, Material};
 use crate::model::sh::sh_count;
 use crate::model::spectral::{BasisTable, SpectralBasis};
@@ -151,7 +152,7 @@ pub fn subset(original: &Material, o: &SubsetOptions) -> Result<(Material, Subse
                 m.spectral.table = Some(BasisTable {
                     nodes: nodes.clone(),
                     values,
-                    precision: t.precision,
+                    storage: t.storage.clone(),
                 });
                 "the tabulated basis keeps those nodes (exact inside the range)"
             }
@@ -168,7 +169,7 @@ pub fn subset(original: &Material, o: &SubsetOptions) -> Result<(Material, Subse
                 m.spectral.table = Some(BasisTable {
                     nodes: nodes.clone(),
                     values,
-                    precision: Precision::F32,
+                    storage: BasisStorage::Float(Precision::F32),
                 });
                 "the analytic basis is re-tabulated at the kept wavelengths (exact there, \
                  linear between them)"
@@ -227,11 +228,11 @@ pub fn subset(original: &Material, o: &SubsetOptions) -> Result<(Material, Subse
             }
         }
         if let Some(t) = &mut m.spectral.table {
-            if t.precision != Precision::F16 {
+            if t.storage != BasisStorage::Float(Precision::F16) {
                 t.values
                     .iter_mut()
                     .for_each(|v| *v = half::f16::from_f64(*v).to_f64());
-                t.precision = Precision::F16;
+                t.storage = BasisStorage::Float(Precision::F16);
             }
         }
         actions.push("precision: f16 (rounding, with a power-of-two scale per record)".into());

@@ -6,6 +6,7 @@
 //! little-endian. A first letter in upper case marks a critical chunk, lower case an ancillary
 //! one that readers may skip.
 
+mod basis_payload;
 mod fields;
 mod range_coder;
 mod read;
@@ -98,6 +99,8 @@ pub const VERSION_MINOR_WAVELET: u16 = 5;
 /// The minor version of files whose warped tables' integers are range-coded (`WARP` layout
 /// bit 3) instead of deflated.
 pub const VERSION_MINOR_RANGE: u16 = 6;
+/// `SBAS` precision code of a quantised, range-coded basis (version 1.6, §3.2).
+pub const SBAS_QUANTISED: u8 = 3;
 
 pub(crate) const HEAD_FIXED: usize = 40;
 pub(crate) const RECD_FIXED: usize = 40;

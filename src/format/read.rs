@@ -413,31 +413,51 @@ pub fn read_material(bytes: &[u8], limits: &Limits) -> Result<Material> {
                     ));
                 }
                 let code = f.u8("precision")?;
-                let precision = Precision::from_code(code)
-                    .ok_or_else(|| f.unsupported(format!("unknown basis precision code {code}")))?;
                 f.zero(3, "reserved")?;
-                let count = h.spectral.terms * h.wavelengths.len();
-                let need = 4 + (count * precision.bytes()) as u64;
-                if need != len as u64 {
-                    return Err(malformed(
-                        pos,
-                        Some(kind),
-                        format!(
-                            "{} terms × {} wavelengths in {} need {need} bytes, the chunk has {len}",
-                            h.spectral.terms,
-                            h.wavelengths.len(),
-                            precision.name()
-                        ),
-                    ));
-                }
-                let mut values = Vec::with_capacity(count);
-                for _ in 0..count {
-                    values.push(f.stored(precision, 1.0, "basis_value")? as f64);
-                }
+                let (values, storage) = if code == SBAS_QUANTISED {
+                    if h.minor < VERSION_MINOR_RANGE {
+                        return Err(f.malformed(format!(
+                            "a quantised basis (precision 3) is a 1.{VERSION_MINOR_RANGE} feature, \
+                             in a 1.{} file",
+                            h.minor
+                        )));
+                    }
+                    super::basis_payload::read_quantised(
+                        &mut f,
+                        h.spectral.terms,
+                        h.wavelengths.len(),
+                    )?
+                } else {
+                    let precision = Precision::from_code(code).ok_or_else(|| {
+                        f.unsupported(format!("unknown basis precision code {code}"))
+                    })?;
+                    let count = h.spectral.terms * h.wavelengths.len();
+                    let need = 4 + (count * precision.bytes()) as u64;
+                    if need != len as u64 {
+                        return Err(malformed(
+                            pos,
+                            Some(kind),
+                            format!(
+                                "{} terms × {} wavelengths in {} need {need} bytes, the chunk has {len}",
+                                h.spectral.terms,
+                                h.wavelengths.len(),
+                                precision.name()
+                            ),
+                        ));
+                    }
+                    let mut values = Vec::with_capacity(count);
+                    for _ in 0..count {
+                        values.push(f.stored(precision, 1.0, "basis_value")? as f64);
+                    }
+                    (
+                        values,
+                        crate::model::basis_storage::BasisStorage::Float(precision),
+                    )
+                };
                 table = Some(crate::model::spectral::BasisTable {
                     nodes: h.wavelengths.iter().map(|&w| w as f64).collect(),
                     values,
-                    precision,
+                    storage,
                 });
             }
             (&CHUNK_FACT, Some(h)) => {

@@ -141,7 +141,7 @@ impl Magnitudes {
     }
 }
 
-fn why(e: RangeError) -> String {
+pub(super) fn why(e: RangeError) -> String {
     match e {
         RangeError::Truncated => "the range-coded payload ends early (truncated?)".into(),
         RangeError::FirstByte(b) => format!("the range-coded payload starts with {b}, not 0"),
@@ -157,7 +157,7 @@ fn ndf_pattern(v: f32, precision: Precision) -> i64 {
 }
 
 /// The prediction of pattern j from the patterns before it: 0, then the last, then linear.
-fn ndf_prediction(p: &[i64], j: usize) -> i64 {
+pub(super) fn ndf_prediction(p: &[i64], j: usize) -> i64 {
     match j {
         0 => 0,
         1 => p[0],
@@ -166,14 +166,14 @@ fn ndf_prediction(p: &[i64], j: usize) -> i64 {
 }
 
 /// A sequence of side values: residuals in contexts by the previous residual.
-struct Side {
+pub(super) struct Side {
     zero: [BitModel; NEIGHBOURS],
     magnitudes: Magnitudes,
     q: usize,
 }
 
 impl Side {
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         Side {
             zero: [BitModel::default(); NEIGHBOURS],
             magnitudes: Magnitudes::new(),
@@ -181,12 +181,12 @@ impl Side {
         }
     }
 
-    fn put(&mut self, enc: &mut RangeEncoder, v: i64) {
+    pub(super) fn put(&mut self, enc: &mut RangeEncoder, v: i64) {
         self.magnitudes.put(enc, &mut self.zero[self.q], v, self.q);
         self.q = neighbour_class(v.unsigned_abs());
     }
 
-    fn get(&mut self, dec: &mut RangeDecoder) -> Result<i64, String> {
+    pub(super) fn get(&mut self, dec: &mut RangeDecoder) -> Result<i64, String> {
         let v = self.magnitudes.get(dec, &mut self.zero[self.q], self.q)?;
         self.q = neighbour_class(v.unsigned_abs());
         Ok(v)

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::error::{Error, Result};
+use crate::model::basis_storage::BasisStorage;
 use crate::model::factor::FactorModel;
 use crate::model::material::*;
 use crate::model::sh::sh_count;
@@ -70,11 +71,16 @@ pub fn written_version(m: &Material) -> (u16, bool) {
         // Warped tables are a 1.4 feature whatever the material asks, as FACT is 1.1's; their
         // wavelet transform a 1.5 one.
         let minor = match (w.coding, w.transform) {
+            _ if quantised_basis(m) => VERSION_MINOR_RANGE,
             (PayloadCoding::Range, _) => VERSION_MINOR_RANGE,
             (_, TableTransform::Dct) => VERSION_MINOR_WARP,
             (_, TableTransform::Wavelet53) => VERSION_MINOR_WAVELET,
         };
         return (minor, is_wavelength_range(&m.wavelengths));
+    }
+    if quantised_basis(m) {
+        // A quantised basis is a 1.6 feature (compact records, 1.3, come with it).
+        return (VERSION_MINOR_RANGE, range);
     }
     if m.version_minor >= VERSION_MINOR_COMPACT {
         return (VERSION_MINOR_COMPACT, range);
@@ -91,6 +97,14 @@ pub fn written_version(m: &Material) -> (u16, bool) {
         0
     };
     (minor, range)
+}
+
+/// Whether the material's basis is stored quantised (`SBAS` precision 3, a 1.6 feature).
+fn quantised_basis(m: &Material) -> bool {
+    m.spectral
+        .table
+        .as_ref()
+        .is_some_and(|t| matches!(t.storage, BasisStorage::Quantised { .. }))
 }
 
 /// Serialises a material. Fails only if it breaks an invariant of the format.
@@ -150,11 +164,23 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
 
     if let Some(table) = &m.spectral.table {
         let mut d = Vec::with_capacity(4 + 4 * table.values.len());
-        d.extend_from_slice(&[table.precision.code(), 0, 0, 0]);
-        for v in &table.values {
-            match table.precision {
-                Precision::F32 => d.extend_from_slice(&(*v as f32).to_le_bytes()),
-                Precision::F16 => d.extend_from_slice(&f16::from_f64(*v).to_le_bytes()),
+        match &table.storage {
+            BasisStorage::Float(precision) => {
+                d.extend_from_slice(&[precision.code(), 0, 0, 0]);
+                for v in &table.values {
+                    match precision {
+                        Precision::F32 => d.extend_from_slice(&(*v as f32).to_le_bytes()),
+                        Precision::F16 => d.extend_from_slice(&f16::from_f64(*v).to_le_bytes()),
+                    }
+                }
+            }
+            BasisStorage::Quantised { exponents } => {
+                d.extend_from_slice(&[SBAS_QUANTISED, 0, 0, 0]);
+                d.extend_from_slice(&super::basis_payload::quantised_data(
+                    &table.values,
+                    exponents,
+                    table.nodes.len(),
+                ));
             }
         }
         push_chunk(&mut out, CHUNK_SBAS, &d);

@@ -422,14 +422,33 @@ impl Material {
             {
                 return Err("the basis table's nodes are not the file's wavelengths".into());
             }
-            let representable = |v: f64| match t.precision {
-                Precision::F32 => (v as f32) as f64 == v,
-                Precision::F16 => half::f16::from_f64(v).to_f64() == v,
-            };
-            if let Some(v) = t.values.iter().find(|v| !representable(**v)) {
+            let w = t.nodes.len().max(1);
+            if let crate::model::basis_storage::BasisStorage::Quantised { exponents } = &t.storage {
+                if exponents.len() != self.spectral.terms {
+                    return Err(format!(
+                        "{} exponents for a quantised basis of {} terms",
+                        exponents.len(),
+                        self.spectral.terms
+                    ));
+                }
+                if let Some(e) = exponents.iter().find(|&&e| {
+                    !crate::model::basis_storage::QUANTISED_EXPONENTS.contains(&(e as i32))
+                }) {
+                    return Err(format!(
+                        "a quantised basis exponent {e} outside [−128, 103]"
+                    ));
+                }
+            }
+            if let Some((i, v)) = t
+                .values
+                .iter()
+                .enumerate()
+                .find(|(i, v)| !t.storage.holds(i / w, **v))
+            {
                 return Err(format!(
-                    "basis table value {v} is not exactly a {} number",
-                    t.precision.name()
+                    "basis table value {v} (function {}) is not exactly a {} value",
+                    i / w,
+                    t.storage.name()
                 ));
             }
         }

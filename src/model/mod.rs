@@ -3,6 +3,7 @@
 //! conventions. Uses nothing above it.
 
 pub mod angles;
+pub mod basis_storage;
 pub mod factor;
 pub mod lanes;
 pub mod lobes;

@@ -59,7 +59,7 @@ pub struct BasisTable {
     /// `terms` rows of `nodes.len()` values: row k is basis function k.
     pub values: Vec<f64>,
     /// How the values are stored (each value must be exactly representable in it).
-    pub precision: crate::model::Precision,
+    pub storage: crate::model::basis_storage::BasisStorage,
 }
 
 /// A spectral basis with its number of terms and the wavelength interval it spans.
@@ -273,7 +273,7 @@ enum EvaluatorForm {
         /// Some(1/step) when every interval has exactly the same width: the interval is then
         /// found by one multiplication (checked) and its fraction by another.
         inv_step: Option<f64>,
-        precision: crate::model::Precision,
+        storage: crate::model::basis_storage::BasisStorage,
     },
 }
 
@@ -322,7 +322,7 @@ impl SpectrumEvaluator {
                     nodes: n.iter().map(|&x| x as f32).collect(),
                     values,
                     inv_step,
-                    precision: table.precision,
+                    storage: table.storage.clone(),
                 }
             }
         };
@@ -345,7 +345,7 @@ impl SpectrumEvaluator {
             EvaluatorForm::Table {
                 nodes,
                 values,
-                precision,
+                storage,
                 ..
             } => {
                 let (w, k) = (nodes.len(), self.terms);
@@ -358,7 +358,7 @@ impl SpectrumEvaluator {
                 Some(BasisTable {
                     nodes: nodes.iter().map(|&x| x as f64).collect(),
                     values: rows,
-                    precision: *precision,
+                    storage: storage.clone(),
                 })
             }
             _ => None,
@@ -368,9 +368,12 @@ impl SpectrumEvaluator {
     /// Heap bytes held (the decoder reports its resident size).
     pub fn heap_bytes(&self) -> usize {
         match &self.form {
-            EvaluatorForm::Table { nodes, values, .. } => {
-                4 * (nodes.capacity() + values.capacity())
-            }
+            EvaluatorForm::Table {
+                nodes,
+                values,
+                storage,
+                ..
+            } => 4 * (nodes.capacity() + values.capacity()) + storage.heap_bytes(),
             _ => 0,
         }
     }
@@ -769,7 +772,9 @@ mod tests {
             table: Some(BasisTable {
                 nodes: vec![400.0, 500.0, 700.0],
                 values: vec![1.0, 2.0, 4.0, 0.0, -1.0, 1.0],
-                precision: crate::model::Precision::F32,
+                storage: crate::model::basis_storage::BasisStorage::Float(
+                    crate::model::Precision::F32,
+                ),
             }),
             ..SpectralSpace::analytic(SpectralBasis::Tabulated, 2, 400.0, 700.0)
         };
@@ -831,14 +836,14 @@ mod tests {
             values: (0..18)
                 .map(|i| (((i * 7919) % 13) as f64 / 13.0 - 0.4) as f32 as f64)
                 .collect(),
-            precision: crate::model::Precision::F32,
+            storage: crate::model::basis_storage::BasisStorage::Float(crate::model::Precision::F32),
         };
         let uniform = BasisTable {
             nodes: (0..31).map(|i| 400.0 + 10.0 * i as f64).collect(),
             values: (0..93)
                 .map(|i| (((i * 104729) % 17) as f64 / 17.0 - 0.3) as f32 as f64)
                 .collect(),
-            precision: crate::model::Precision::F32,
+            storage: crate::model::basis_storage::BasisStorage::Float(crate::model::Precision::F32),
         };
         let spaces = [
             SpectralSpace::analytic(SpectralBasis::PeriodicFourier, 13, 400.0, 700.0),
