@@ -478,14 +478,13 @@ impl Decoder {
 }
 
 /// An evaluator whose warped tables could be prepared, or why not: a stored incidence whose
-/// VNDF integrates to zero, or a σ node of zero (`spec/EVALUATION.md`, "Warped tables").
+/// VNDF integrates to zero, or a σ node of zero (`spec/EVALUATION.md`, "Warped tables"), or
+/// tables beyond what the packed form holds.
 fn checked(ev: Evaluator) -> std::result::Result<Evaluator, String> {
-    if ev.res.warped.is_some() && ev.warped.is_none() {
-        return Err(
-            "warped tables whose NDF leaves a stored incidence's VNDF or a σ node at zero".into(),
-        );
+    match &ev.warped_refusal {
+        Some(why) => Err(why.clone()),
+        None => Ok(ev),
     }
-    Ok(ev)
 }
 
 /// Heap bytes of a material held in memory (capacities).

@@ -49,6 +49,8 @@ pub(crate) struct Evaluator {
     /// Warped tables (`WARP`): when present they answer every query (the records are empty).
     /// Boxed: a file without them pays one pointer.
     pub(crate) warped: Option<Box<WarpedEval>>,
+    /// Why the material's warped tables could not be prepared (the reader then refuses it).
+    pub(crate) warped_refusal: Option<String>,
 }
 
 /// A factor model's angular terms T_cr at one pair of directions.
@@ -67,11 +69,16 @@ impl Evaluator {
         let first = material.records.first().map_or(0.0, |r| r.theta_i as f64);
         let last = material.records.last().map_or(0.0, |r| r.theta_i as f64);
         let res = Resident::new(material);
-        let warped = material.warped.as_ref().and_then(|w| {
+        let prepared = material.warped.as_ref().map(|w| {
             let thetas: Vec<f32> = material.records.iter().map(|r| r.theta_i).collect();
             let means = res.basis_means();
             WarpedEval::new(w, &thetas, material.spectral.terms, &means, residency).map(Box::new)
         });
+        let (warped, warped_refusal) = match prepared {
+            Some(Ok(w)) => (Some(w), None),
+            Some(Err(why)) => (None, Some(why)),
+            None => (None, None),
+        };
         let n = res.recs.len();
         let alone = (0..n).map(|r| BlendInfo::of(&res, &[r])).collect();
         let pairs = match lattice {
@@ -89,6 +96,7 @@ impl Evaluator {
             on_line,
             kernel: None,
             warped,
+            warped_refusal,
             lattice,
             small,
             theta_ends: [end(first), end(last)],

@@ -61,20 +61,29 @@ pub(crate) struct Packing {
 
 impl Packing {
     /// The packing of a table whose values are `values` and whose quantisation step in the
-    /// file is `q`.
-    pub(crate) fn of(values: &[f64], q: f32) -> Self {
+    /// file is `q`. Fails when a value lies beyond the `f32` range (only a hostile file's steps
+    /// and integers reach there): the packing's least value and step are `f32`.
+    pub(crate) fn of(values: &[f64], q: f32) -> Result<Self> {
         let (min, max) = values
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
                 (lo.min(v), hi.max(v))
             });
+        let single = f32::MAX as f64;
+        if min < -single || max > single {
+            return Err(Error::LimitsExceeded(format!(
+                "warped tables: a table's values reach {}, beyond single precision (±{single:e}), \
+                 which the decoder's packed tables hold",
+                if max > single { max } else { min }
+            )));
+        }
         if !(min.is_finite() && max.is_finite()) || max <= min {
             let lo = if min.is_finite() { min as f32 } else { 0.0 };
-            return Packing {
+            return Ok(Packing {
                 bits: 0,
                 lo,
                 step: 0.0,
-            };
+            });
         }
         // The least value rounded down to f32, so that every code is ≥ 0.
         let mut lo = min as f32;
@@ -91,9 +100,10 @@ impl Packing {
                 step = step.next_up();
             }
         }
-        let count = codes(step) as u64;
+        // At least one code: the span is finite and below 2·f32::MAX here.
+        let count = (codes(step) as u64).max(1);
         let bits = 64 - (count - 1).leading_zeros();
-        Packing { bits, lo, step }
+        Ok(Packing { bits, lo, step })
     }
 
     /// The code of value v.
@@ -191,7 +201,7 @@ impl CompactTables {
         out.resize(entries + warped_table::WORDS * d.n * d.k, 0);
         for t in 0..d.n * d.k {
             let values = &exact.tables[t * rr..(t + 1) * rr];
-            let p = Packing::of(values, steps[t]);
+            let p = Packing::of(values, steps[t])?;
             let at = out.len();
             out.resize(at + p.words(rr), 0);
             for (j, &v) in values.iter().enumerate().filter(|_| p.bits > 0) {

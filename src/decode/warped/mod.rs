@@ -75,20 +75,25 @@ macro_rules! on_form {
 }
 
 impl WarpedEval {
-    /// Prepares a validated model for `thetas_deg` (HEAD's θi) and `k` terms. `None` when a
-    /// stored incidence's VNDF or a σ node is zero, or a slice's values all are (the reader
-    /// refuses such files).
+    /// Prepares a validated model for `thetas_deg` (HEAD's θi) and `k` terms. Fails, saying
+    /// why, when a stored incidence's VNDF or a σ node is zero, or a slice's values all are, or
+    /// (compact residency) the tables cannot be packed (the reader refuses such files).
     pub(crate) fn new(
         w: &WarpedModel,
         thetas_deg: &[f32],
         k: usize,
         basis_means: &[f64],
         residency: Residency,
-    ) -> Option<Self> {
-        let exact = ExactTables::new(w, thetas_deg, k, basis_means)?;
-        Some(match residency {
+    ) -> std::result::Result<Self, String> {
+        let exact = ExactTables::new(w, thetas_deg, k, basis_means).ok_or_else(|| {
+            "warped tables whose NDF leaves a stored incidence's VNDF or a σ node at zero"
+                .to_string()
+        })?;
+        Ok(match residency {
             Residency::Exact => WarpedEval::Exact(Box::new(exact)),
-            Residency::Compact => WarpedEval::Compact(CompactTables::new(&exact, &w.steps).ok()?),
+            Residency::Compact => WarpedEval::Compact(
+                CompactTables::new(&exact, &w.steps).map_err(|e| e.to_string())?,
+            ),
         })
     }
 
