@@ -92,14 +92,12 @@ impl Decoder {
         // The reader validated the material: only its resident form is kept.
         let material = read_material(bytes, limits)?;
         Ok(Decoder {
-            evaluator: checked(Evaluator::new(&material, residency)).map_err(|message| {
-                Error::Format {
-                    at: crate::error::Location {
-                        offset: 0,
-                        chunk: Some(crate::format::CHUNK_WARP),
-                    },
-                    message,
-                }
+            evaluator: Evaluator::new(&material, residency).map_err(|message| Error::Format {
+                at: crate::error::Location {
+                    offset: 0,
+                    chunk: Some(crate::format::CHUNK_WARP),
+                },
+                message,
             })?,
             material: std::sync::OnceLock::new(),
             sampling: std::sync::OnceLock::new(),
@@ -165,7 +163,7 @@ impl Decoder {
             .validate()
             .map_err(|e| Error::Parameter(format!("invalid material: {e}")))?;
         Ok(Decoder {
-            evaluator: checked(Evaluator::new(&material, Residency::Exact))
+            evaluator: Evaluator::new(&material, Residency::Exact)
                 .map_err(|e| Error::Parameter(format!("invalid material: {e}")))?,
             material: material.into(),
             sampling: std::sync::OnceLock::new(),
@@ -474,16 +472,6 @@ impl Decoder {
             return super::warped::pdf_warped(w, wi, wo);
         }
         sampling::pdf(&self.evaluator, self.sampling_weights(), wi, wo)
-    }
-}
-
-/// An evaluator whose warped tables could be prepared, or why not: a stored incidence whose
-/// VNDF integrates to zero, or a σ node of zero (`spec/EVALUATION.md`, "Warped tables"), or
-/// tables beyond what the packed form holds.
-fn checked(ev: Evaluator) -> std::result::Result<Evaluator, String> {
-    match &ev.warped_refusal {
-        Some(why) => Err(why.clone()),
-        None => Ok(ev),
     }
 }
 

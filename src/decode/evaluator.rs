@@ -49,8 +49,6 @@ pub(crate) struct Evaluator {
     /// Warped tables (`WARP`): when present they answer every query (the records are empty).
     /// Boxed: a file without them pays one pointer.
     pub(crate) warped: Option<Box<WarpedEval>>,
-    /// Why the material's warped tables could not be prepared (the reader then refuses it).
-    pub(crate) warped_refusal: Option<String>,
 }
 
 /// A factor model's angular terms T_cr at one pair of directions.
@@ -58,8 +56,12 @@ type FactorTerms = [f64; MAX_COMPONENTS * MAX_RANK];
 
 impl Evaluator {
     /// Prepares a material for evaluation, its warped tables (if any) held as `residency`
-    /// says; the caller has validated it.
-    pub(crate) fn new(material: &Material, residency: Residency) -> Self {
+    /// says; the caller has validated it. Fails, saying why, when its warped tables cannot be
+    /// prepared (a stored incidence's VNDF or a σ node at zero, tables beyond f32).
+    pub(crate) fn new(
+        material: &Material,
+        residency: Residency,
+    ) -> std::result::Result<Self, String> {
         let lattice = Lattice::of(material);
         let small = material.sh_level <= 6 && material.spectral.terms <= SMALL_TERMS;
         let end = |t: f64| {
@@ -74,11 +76,7 @@ impl Evaluator {
             let means = res.basis_means();
             WarpedEval::new(w, &thetas, material.spectral.terms, &means, residency).map(Box::new)
         });
-        let (warped, warped_refusal) = match prepared {
-            Some(Ok(w)) => (Some(w), None),
-            Some(Err(why)) => (None, Some(why)),
-            None => (None, None),
-        };
+        let warped = prepared.transpose()?;
         let n = res.recs.len();
         let alone = (0..n).map(|r| BlendInfo::of(&res, &[r])).collect();
         let pairs = match lattice {
@@ -96,7 +94,6 @@ impl Evaluator {
             on_line,
             kernel: None,
             warped,
-            warped_refusal,
             lattice,
             small,
             theta_ends: [end(first), end(last)],
@@ -108,7 +105,7 @@ impl Evaluator {
         if ev.on_line {
             ev.kernel = Some(Kernel::new(&ev.res));
         }
-        ev
+        Ok(ev)
     }
 
     /// Whether the file's pairs are answered one by one through [`Evaluator::eval`] (a factor

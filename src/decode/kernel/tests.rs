@@ -46,7 +46,7 @@ fn wide_batches_are_the_one_pair_computation() {
     let mut taken = 0;
     for path in paths {
         let material = read_material(&std::fs::read(&path).unwrap(), &Limits::default()).unwrap();
-        let ev = Evaluator::new(&material, crate::decode::Residency::Exact);
+        let ev = Evaluator::new(&material, crate::decode::Residency::Exact).unwrap();
         let Some((kernel, st)) = ev.kernel_input() else {
             continue;
         };
