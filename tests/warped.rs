@@ -558,15 +558,20 @@ fn the_wavelet_is_refused_in_a_1_4_file_and_an_unknown_transform_is_unsupported(
 
 /// The WARP chunk of a file: (offset of its data, its length).
 fn warp_chunk(bytes: &[u8]) -> (usize, usize) {
+    chunk(bytes, b"WARP")
+}
+
+/// The chunk of type `kind` in a file: (offset of its data, its length).
+fn chunk(bytes: &[u8], kind: &[u8; 4]) -> (usize, usize) {
     let mut p = 10;
     while p + 12 <= bytes.len() {
         let len = u32::from_le_bytes(bytes[p..p + 4].try_into().unwrap()) as usize;
-        if &bytes[p + 4..p + 8] == b"WARP" {
+        if &bytes[p + 4..p + 8] == kind {
             return (p + 8, len);
         }
         p += 12 + len;
     }
-    panic!("no WARP chunk");
+    panic!("no {} chunk", String::from_utf8_lossy(kind));
 }
 
 /// Rewrites the CRC of the chunk whose data starts at `at` (so a reader gets past it).
@@ -738,19 +743,6 @@ fn the_compact_form_is_the_exact_one_within_a_fraction_of_the_stored_error() {
     assert!(checked >= 3, "{checked} golden files with warped tables");
 }
 
-/// The SBAS chunk of a file: (offset of its data, its length).
-fn sbas_chunk(bytes: &[u8]) -> (usize, usize) {
-    let mut p = 10;
-    while p + 12 <= bytes.len() {
-        let len = u32::from_le_bytes(bytes[p..p + 4].try_into().unwrap()) as usize;
-        if &bytes[p + 4..p + 8] == b"SBAS" {
-            return (p + 8, len);
-        }
-        p += 12 + len;
-    }
-    panic!("no SBAS chunk");
-}
-
 #[test]
 fn a_quantised_basis_holds_the_same_colours_in_a_third_of_the_bytes() {
     // Format 1.6 stores the basis as power-of-two-gridded integers, range-coded (FORMAT.md
@@ -769,8 +761,8 @@ fn a_quantised_basis_holds_the_same_colours_in_a_third_of_the_bytes() {
         files.push(out);
     }
     let (new, old) = (&files[0].bytes, &files[1].bytes);
-    let (at, len) = sbas_chunk(new);
-    let (old_at, old_len) = sbas_chunk(old);
+    let (at, len) = chunk(new, b"SBAS");
+    let (old_at, old_len) = chunk(old, b"SBAS");
     assert_eq!(new[at], 3, "precision code 3 in 1.6");
     assert_eq!(old[old_at], 2, "f16 in 1.5");
     assert_eq!(old_len, 4 + 3 * 41 * 2);
@@ -809,7 +801,7 @@ fn a_quantised_basis_holds_the_same_colours_in_a_third_of_the_bytes() {
 fn a_damaged_quantised_basis_is_refused_with_its_reason() {
     let good = std::fs::read(samples_dir().join("golden/rgl_paper_qbasis_v16.sbrdf")).unwrap();
     assert!(Decoder::from_bytes(&good).is_ok());
-    let (at, len) = sbas_chunk(&good);
+    let (at, len) = chunk(&good, b"SBAS");
     assert_eq!(good[at], 3);
     let refused = |b: &[u8]| Decoder::from_bytes(b).unwrap_err().to_string();
     // An exponent above 103 (2^104 · n overflows f32 for large n).
