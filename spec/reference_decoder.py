@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Independent reference reader and decoder of the .sbrdf format, version 1.6.
+"""Independent reference reader and decoder of the .sbrdf format, version 1.7.
 
 Version 1.1 adds to version 1.0 the wavelength range (HEAD flag bit 1, §3.1), the critical `FACT`
 chunk (the factor model, §3.7, EVALUATION.md "Factor model") and the ancillary `xval` chunk
@@ -7,7 +7,7 @@ chunk (the factor model, §3.7, EVALUATION.md "Factor model") and the ancillary 
 (EVALUATION.md "Lobes", its blending in "Lobes by position"); version 1.3 the compact records
 (`RECS`, §3.9); version 1.4 the warped tables (`WARP`, §3.10, EVALUATION.md "Warped tables"),
 version 1.5 their wavelet transform (`WARP` layout 17), version 1.6 their range-coded payload
-(`WARP` layout bit 3),
+(`WARP` layout bit 3), version 1.7 their prediction flags (`WARP` arrangement 2),
 whose tables, warps and σ nodes are computed once when the file is opened. Files without them
 (every 1.0 file) are read and evaluated exactly as before.
 
@@ -469,9 +469,10 @@ def context_class(s):
     return 0 if s == 0 else 1 if s == 1 else 2 if s <= 3 else 3 if s <= 7 else 4
 
 
-def decode_range_payload(data, m, ndf_prec, tables, k, grid, transform, where):
-    """§3.10, "Range-coded payload": the M NDF values, the N·K steps and the N·K·R² integers
-    (each table in the transform's order, as the zlib payload holds them)."""
+def decode_range_payload(data, m, ndf_prec, tables, k, grid, transform, where, flags=None):
+    """§3.10, "Range-coded payload": the M NDF values, the N·K steps, (arrangement 2, 1.7) the
+    prediction flags of incidences 1 … N − 1 (`flags` = N), and the N·K·R² integers (each table
+    in the transform's order, as the zlib payload holds them)."""
     dec = RangeDecoder(data, where)
     # 1. NDF: bit patterns, predicted linearly from the two before
     seq, zero, q, pats = RangeIntegers(), [2048] * 5, 0, []
@@ -495,7 +496,12 @@ def decode_range_payload(data, m, ndf_prec, tables, k, grid, transform, where):
         if not 0 <= last <= 0xFFFFFFFF:
             raise malformed("%s: step bit pattern %d out of range (§3.10)" % (where, last))
         steps.append(struct.unpack("<f", struct.pack("<I", last))[0])
-    # 3. tables, in the transform's order; contexts by frequency class and neighbours
+    # 3. (1.7, arrangement 2) one adaptive bit per incidence after the first, one model
+    predicted = [False]
+    model = [2048]
+    for _ in range(1, flags or 0):
+        predicted.append(dec.bit(model, 0) == 1)
+    # 4. tables, in the transform's order; contexts by frequency class and neighbours
     R = grid
     if transform == 0:
         order = sorted(((a, b) for a in range(R) for b in range(R)),
@@ -543,7 +549,7 @@ def decode_range_payload(data, m, ndf_prec, tables, k, grid, transform, where):
     if dec.pos != len(data):
         raise malformed("%s: %d bytes after the range-coded payload (§3.10)"
                         % (where, len(data) - dec.pos))
-    return ndf, steps, ints
+    return ndf, steps, ints, predicted
 
 
 class Record:
@@ -1056,7 +1062,7 @@ class SbrdfFile:
             raise malformed("%s: shorter than its 12-byte fixed part (§3.10)" % where)
         layout, ndf_prec, grid, warp_grid, ndf_count = r.take("BBHHH")
         (sigma_scale,) = r.take("f")
-        if layout not in (1, 17, 9, 25):
+        if layout not in (1, 17, 9, 25, 10, 26):
             # §3.10 and §6: an unknown WARP layout makes the file unsupported
             raise unsupported("%s: unknown layout %d (§3.10)" % (where, layout))
         if layout & 16 and self.minor < 5:
@@ -1065,6 +1071,10 @@ class SbrdfFile:
         ranged = bool(layout & 8)
         if ranged and self.minor < 6:
             raise malformed("%s: layout %d (range-coded, 1.6) in a 1.%d file (§3.10)"
+                            % (where, layout, self.minor))
+        predicting = layout & 7 == 2  # arrangement 2: prediction flags (1.7, range-coded only)
+        if predicting and self.minor < 7:
+            raise malformed("%s: layout %d (prediction flags, 1.7) in a 1.%d file (§3.10)"
                             % (where, layout, self.minor))
         if ndf_prec not in (1, 2):
             # §3.10 and §6: an unknown NDF precision makes the file unsupported
@@ -1090,16 +1100,17 @@ class SbrdfFile:
         if not (math.isfinite(sigma_scale) and sigma_scale > 0):
             raise malformed("%s: sigma_scale %r not finite and > 0 (§3.10)" % (where, sigma_scale))
         if ranged:
-            total = ndf_count + n * k + count
+            total = ndf_count + n * k + count + (n - 1 if predicting else 0)
             if total > 1600 * plen:
                 raise malformed("%s: a range-coded payload of %d bytes cannot code %d integers "
                                 "(§3.10)" % (where, plen, total))
-            ndf, steps, ints = decode_range_payload(
-                body[fixed:], ndf_count, ndf_prec, n * k, k, grid, layout >> 4, where)
+            ndf, steps, ints, predicted = decode_range_payload(
+                body[fixed:], ndf_count, ndf_prec, n * k, k, grid, layout >> 4, where,
+                n if predicting else None)
         else:
             ndf = r.take("%d%s" % (ndf_count, "f" if ndf_prec == 1 else "e"), "ndf")
             steps = r.take("%df" % (n * k), "steps")
-            ints = None
+            ints, predicted = None, [False] * n
         # −0 is allowed (equal to +0) for NDF values and steps: −0.0 >= 0 holds
         if not all(math.isfinite(v) and v >= 0 for v in ndf) or not any(v > 0 for v in ndf):
             raise malformed("%s: an NDF value not finite or < 0, or none > 0 (§3.10)" % where)
@@ -1107,7 +1118,8 @@ class SbrdfFile:
             raise malformed("%s: a step not finite or < 0 (§3.10)" % where)
         if ints is None:
             ints = self.inflate_warp(body[fixed:], count, where)
-        return {"R": grid, "G": warp_grid, "M": ndf_count, "c": sigma_scale, "layout": layout & 0xF7,
+        return {"R": grid, "G": warp_grid, "M": ndf_count, "c": sigma_scale,
+                "transform": layout >> 4, "predicted": predicted,
                 "ndf": list(ndf), "steps": list(steps), "ints": ints}
 
     @staticmethod
@@ -1173,7 +1185,7 @@ class SbrdfFile:
 
         self.warp_ndf = ndf_at
         # -- tables: T[r][c] = Σ_a Σ_b C(a, b) w_a(r) w_b(c), w the synthesis vectors
-        if w["layout"] == 1:
+        if w["transform"] == 0:
             # DCT-II: w_a(r) = α(a) cos(π(2r + 1)a / 2R)
             cosine = [[(math.sqrt(1.0 / R) if a == 0 else math.sqrt(2.0 / R))
                        * math.cos(math.pi * (2 * r + 1) * a / (2 * R)) for r in range(R)]
@@ -1193,16 +1205,21 @@ class SbrdfFile:
                                            band[ab[1]], ab[0], ab[1]))
         ints, steps = w["ints"], w["steps"]
         tables = []
+        coefs = [None] * K  # the previous incidence's coefficients C, per term (file order)
         for i in range(self.n):
             per_term = []
             for k in range(K):
                 q = steps[i * K + k]
                 base = (i * K + k) * R * R
+                # C = q·n, plus the previous incidence's C when incidence i is predicted (§3.10)
+                own = [q * ints[base + j] for j in range(R * R)]
+                if w["predicted"][i]:
+                    own = [c + p for c, p in zip(own, coefs[k])]
+                coefs[k] = own
                 partial = {}  # a -> Σ_b α(b) C(a, b) cos(π(2c+1)b/2R), per column c
                 for j, (a, b) in enumerate(order):
-                    nq = ints[base + j]
-                    if nq:
-                        coef = q * nq
+                    coef = own[j]
+                    if coef:
                         row = partial.setdefault(a, [0.0] * R)
                         cb = cosine[b]
                         for c in range(R):

@@ -1,6 +1,6 @@
 //! The horizon and the singular points (issue 43; `spec/EVALUATION.md`, "Warped tables", Value
 //! steps 1 and 5): on every golden and shipped file, a sweep of θi and θo over [85°, 90°] gives
-//! finite values no larger than 10× the file's largest value at θ ≤ 85° (warped tables: 128×,
+//! finite values no larger than 10× the file's largest value at θ ≤ 85° (warped tables: 160×,
 //! see [`WARPED_BOUND`]), and ρ·cos θi·cos θo
 //! moves by less than 1% of the file's largest such value from 89.9999° to 90°. Warped tables
 //! grew as 1/cos θ of the light's direction (5.9·10¹³ at 90°) before the divisor was bounded.
@@ -13,9 +13,11 @@ use sbrdf::Decoder;
 /// and between.
 const DPHI: [f64; 8] = [0.0, 30.0, 90.0, 150.0, 175.0, 180.0, 185.0, 270.0];
 const INCIDENT_PHI: [f64; 2] = [0.0, 61.0];
-/// Warped tables toward the horizon: 109–115× on the golden files (the divisor 2⁻¹⁰ of Value
-/// step 5; 2⁻⁶ held them within 7.2× but moved renders, see the spec). Held at 128.
-const WARPED_BOUND: f64 = 128.0;
+/// Warped tables toward the horizon: 109–115× on the paper and satin golden files, 146× on the
+/// ibiza film (`rgl_ibiza_pred_v17`; the same, 145.93×, coded as a 1.6 file: the material's,
+/// not the prediction's), all under the divisor 2⁻¹⁰ of Value step 5 (1024×; 2⁻⁶ held them
+/// within 7.2× but moved renders, see the spec). Held at 160.
+const WARPED_BOUND: f64 = 160.0;
 
 fn files() -> Vec<std::path::PathBuf> {
     let mut out: Vec<_> = golden_files()

@@ -178,6 +178,25 @@ pub fn cmd_info(a: InfoArgs) -> Result<()> {
             steps.0,
             steps.1
         );
+        if !w.predicted.is_empty() {
+            let predicted: Vec<String> = m
+                .records
+                .iter()
+                .zip(&w.predicted)
+                .filter(|(_, &p)| p)
+                .map(|(r, _)| r.theta_i.to_string())
+                .collect();
+            println!(
+                "predicted:      {} of {} incidences coded as the difference to the one before{}",
+                predicted.len(),
+                w.predicted.len().saturating_sub(1),
+                if predicted.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (θv {})", predicted.join(", "))
+                }
+            );
+        }
         println!(
             "incidences θv:  {} (viewing directions: the tables follow them, spec/EVALUATION.md)",
             m.records

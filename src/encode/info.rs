@@ -60,6 +60,16 @@ pub fn to_json(m: &Material, file: &str, bytes: u64) -> serde_json::Value {
             "parameters": f.parameter_count(),
             "precision": f.precision.name(),
         })),
+        "warped": m.warped.as_ref().map(|w| serde_json::json!({
+            "transform": match w.transform {
+                crate::model::warped::TableTransform::Dct => "dct",
+                crate::model::warped::TableTransform::Wavelet53 => "wavelet",
+            },
+            "grid": w.grid,
+            "steps": w.steps,
+            "nonzero": w.levels.iter().filter(|&&z| z != 0).count(),
+            "predicted": w.predicted,
+        })),
         "metadata": meta,
     })
 }

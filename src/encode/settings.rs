@@ -210,7 +210,8 @@ pub fn parse_format(s: &str) -> Result<u16> {
         "1.4" => Ok(4),
         "1.5" => Ok(5),
         "1.6" => Ok(6),
-        _ => Err(bad("format", s, "1.0 to 1.6")),
+        "1.7" => Ok(7),
+        _ => Err(bad("format", s, "1.0 to 1.7")),
     }
 }
 

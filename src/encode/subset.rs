@@ -102,6 +102,16 @@ pub fn subset(original: &Material, o: &SubsetOptions) -> Result<(Material, Subse
                 .iter()
                 .flat_map(|&i| w.levels[i * k * rr..(i + 1) * k * rr].to_vec())
                 .collect();
+            // The kept incidences are the first ones (θi increases), so a predicted incidence
+            // keeps the one it is predicted from.
+            if !w.predicted.is_empty() {
+                if kept.iter().enumerate().any(|(j, &i)| i != j) {
+                    return Err(Error::Input(
+                        "warped tables predicted across incidences whose θi do not increase".into(),
+                    ));
+                }
+                w.predicted.truncate(kept.len());
+            }
         }
         if let Some(sp) = &mut m.sample_positions {
             let used: Vec<u32> = kept.iter().map(|&i| sp.set_of_incidence[i]).collect();

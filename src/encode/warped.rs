@@ -83,6 +83,10 @@ pub struct WarpedOptions {
     /// How the integers are coded: the range coder (format 1.6, the default), or DEFLATE for
     /// files that 1.4 and 1.5 decoders read.
     pub coding: PayloadCoding,
+    /// Let an incidence's tables be coded as the difference to the previous incidence's where
+    /// that takes fewer bytes (format 1.7, range-coded payloads only; `false` writes a file
+    /// that 1.6 decoders read).
+    pub predict: bool,
     /// Raise each incidence's budget to the measurement's estimated noise there
     /// ([`crate::encode::noise`]) where that is higher: what a default budget does, so that
     /// no bytes go to coding noise. An explicit budget leaves it off and means what it says.
@@ -219,7 +223,6 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         k += 1;
     }
     // Each transform codes the same tables; the file keeps the one that comes out smaller.
-    let code = |transform| code_tables(transform, &target, &coef, &basis, k, n, &norms, &budgets);
     // What the file holds beside the tables, whichever transform codes them (σ's scale costs a
     // VNDF total per NDF node: computed once).
     let (ndf_precision, ndf) = ndf_stored(&input.ndf);
@@ -233,6 +236,20 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         ndf,
         steps: Vec::new(),
         levels: Vec::new(),
+        predicted: Vec::new(),
+    };
+    let predict = opts.predict && opts.coding == PayloadCoding::Range;
+    let code = |transform| {
+        let tables = Tables {
+            transform,
+            target: &target,
+            coef: &coef,
+            basis: &basis,
+            k,
+            n,
+            norms: &norms,
+        };
+        tables.code(&budgets, predict.then_some(&shell))
     };
     let chosen = match opts.transform {
         Some(t) => code(t),
@@ -253,6 +270,7 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         transform: chosen.transform,
         steps: chosen.steps,
         levels: chosen.levels,
+        predicted: chosen.predicted,
         ..shell
     };
     let table_values: Vec<f64> = basis.clone();
@@ -307,6 +325,9 @@ struct Coded {
     transform: TableTransform,
     steps: Vec<f32>,
     levels: Vec<i32>,
+    /// Per incidence, whether it is coded as the difference to the one before (empty: the
+    /// file carries no flags).
+    predicted: Vec<bool>,
     errors: Vec<f64>,
     met: bool,
 }
@@ -318,96 +339,178 @@ impl Coded {
             transform: self.transform,
             steps: self.steps.clone(),
             levels: self.levels.clone(),
+            predicted: self.predicted.clone(),
             ..shell.clone()
         }
     }
 }
 
-/// Transforms and quantises the tables (i, k) of `coef` (K per node, node-major) in
-/// `transform`: per stored incidence, the largest step (bisection in log q) whose error meets
-/// its budget (`budgets[i]`), so that every incidence ends near its budget and none spends bytes
-/// below it.
-#[allow(clippy::too_many_arguments)]
-fn code_tables(
+/// The tables to code: the fitted coefficients `coef` (K per node, node-major) of N stored
+/// incidences, with what measures their error.
+struct Tables<'a> {
     transform: TableTransform,
-    target: &Target,
-    coef: &[f64],
-    basis: &[f64],
+    target: &'a Target<'a>,
+    coef: &'a [f64],
+    basis: &'a [f64],
     k: usize,
     n: usize,
-    norms: &[f64],
-    budgets: &[f64],
-) -> Coded {
-    let r = target.r;
-    let rr = r * r;
-    let (analysis, synthesis) = (transform.analysis(r), transform.synthesis(r));
-    let mut freq = vec![0.0; n * k * rr];
-    let mut table = vec![0.0; rr];
-    for i in 0..n {
-        for t in 0..k {
-            for p in 0..rr {
-                table[p] = coef[(i * rr + p) * k + t];
-            }
-            dct2(
-                &analysis,
-                r,
-                &table,
-                &mut freq[(i * k + t) * rr..(i * k + t + 1) * rr],
-            );
-        }
-    }
-    let mut steps = vec![0f32; n * k];
-    let mut levels = vec![0i32; n * k * rr];
-    let mut errors = vec![0.0; n];
-    let mut met = true;
-    for i in 0..n {
-        let max_error = budgets[i];
-        let f = &freq[i * k * rr..(i + 1) * k * rr];
-        let largest = f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let q_min = (largest / (MAX_LEVEL as f64 - 1.0)).max(f64::MIN_POSITIVE);
-        // The previous incidence's levels are final: the coder's context reads them.
-        let previous = (i > 0).then(|| levels[(i - 1) * k * rr..i * k * rr].to_vec());
-        let error_at = |q: f64| -> (Vec<i32>, f64) {
-            let lv = quantise(f, q, previous.as_deref(), r, k);
-            let dec = dequantise_tables(&lv, q as f32, &synthesis, r, k);
-            let mut c = vec![0.0; rr * k];
-            for t in 0..k {
-                for p in 0..rr {
-                    c[p * k + t] = dec[t * rr + p];
+    norms: &'a [f64],
+}
+
+/// One incidence's K tables quantised at one step.
+struct Quantised {
+    step: f32,
+    levels: Vec<i32>,
+    /// The coefficients a decoder rebuilds (the prediction included).
+    rebuilt: Vec<f64>,
+    error: f64,
+}
+
+impl Tables<'_> {
+    /// Transforms and quantises the tables (i, k) in `self.transform`: per stored incidence,
+    /// the largest step (bisection in log q) whose error meets its budget (`budgets[i]`), so
+    /// that every incidence ends near its budget and none spends bytes below it. With `predict`
+    /// (the model's other fields, to count bytes with), each incidence after the first is also
+    /// coded as the difference to the previous incidence's rebuilt coefficients, and keeps
+    /// whichever of the two codes in fewer payload bytes.
+    fn code(&self, budgets: &[f64], predict: Option<&WarpedModel>) -> Coded {
+        let (k, n) = (self.k, self.n);
+        let rr = self.target.r * self.target.r;
+        let freq = self.frequencies();
+        let mut coded = Coded {
+            transform: self.transform,
+            steps: Vec::with_capacity(n * k),
+            levels: Vec::with_capacity(n * k * rr),
+            predicted: Vec::new(),
+            errors: Vec::with_capacity(n),
+            met: true,
+        };
+        let mut rebuilt: Vec<f64> = Vec::new();
+        for i in 0..n {
+            let f = &freq[i * k * rr..(i + 1) * k * rr];
+            // The previous incidence's levels are final: the coder's context reads them.
+            let previous = (i > 0).then(|| &coded.levels[(i - 1) * k * rr..]);
+            let (direct, met) = self.quantise_incidence(i, f, None, previous, budgets[i]);
+            let mut best = (direct, false, met);
+            if let (Some(shell), true) = (predict, i > 0) {
+                let (diff, diff_met) =
+                    self.quantise_incidence(i, f, Some(&rebuilt), previous, budgets[i]);
+                // Bytes of the payload up to this incidence with each candidate.
+                let bytes = |q: &Quantised, flag: bool| {
+                    let mut model = coded.model(shell);
+                    model.steps.extend(std::iter::repeat_n(q.step, k));
+                    model.levels.extend_from_slice(&q.levels);
+                    model.predicted.resize(i, false);
+                    model.predicted.push(flag);
+                    crate::format::warp_payload_len(&model, k)
+                };
+                // The budget met first, then bytes; standing alone kept on a tie.
+                if (!diff_met, bytes(&diff, true)) < (!met, bytes(&best.0, false)) {
+                    best = (diff, true, diff_met);
                 }
             }
-            (lv, target.error_of(i, &c, basis, k, norms[i]))
+            let (q, flag, met) = best;
+            coded.steps.extend(std::iter::repeat_n(q.step, k));
+            coded.levels.extend_from_slice(&q.levels);
+            if predict.is_some() {
+                coded.predicted.push(flag);
+            }
+            coded.errors.push(q.error);
+            coded.met &= met;
+            rebuilt = q.rebuilt;
+        }
+        coded
+    }
+
+    /// The forward transform of every table, (i·K + k)·R² + a·R + b.
+    fn frequencies(&self) -> Vec<f64> {
+        let (r, k) = (self.target.r, self.k);
+        let rr = r * r;
+        let analysis = self.transform.analysis(r);
+        let mut freq = vec![0.0; self.n * k * rr];
+        let mut table = vec![0.0; rr];
+        for i in 0..self.n {
+            for t in 0..k {
+                for (p, v) in table.iter_mut().enumerate() {
+                    *v = self.coef[(i * rr + p) * k + t];
+                }
+                dct2(
+                    &analysis,
+                    r,
+                    &table,
+                    &mut freq[(i * k + t) * rr..(i * k + t + 1) * rr],
+                );
+            }
+        }
+        freq
+    }
+
+    /// Incidence i's K tables (`f`, their coefficients) at the largest step meeting `budget`,
+    /// coded alone or, with `prediction`, as the difference to those coefficients; and whether
+    /// the budget was met (if not, the finest step).
+    fn quantise_incidence(
+        &self,
+        i: usize,
+        f: &[f64],
+        prediction: Option<&[f64]>,
+        previous: Option<&[i32]>,
+        budget: f64,
+    ) -> (Quantised, bool) {
+        let (r, k) = (self.target.r, self.k);
+        let rr = r * r;
+        let synthesis = self.transform.synthesis(r);
+        let residual: Vec<f64> = match prediction {
+            Some(p) => f.iter().zip(p).map(|(a, b)| a - b).collect(),
+            None => f.to_vec(),
+        };
+        let largest = residual.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let q_min = (largest / (MAX_LEVEL as f64 - 1.0)).max(f64::MIN_POSITIVE);
+        let at = |q: f64| -> Quantised {
+            let step = q as f32;
+            let levels = quantise(&residual, q, previous, r, k);
+            let rebuilt: Vec<f64> = levels
+                .iter()
+                .enumerate()
+                .map(|(j, &z)| {
+                    let own = step as f64 * z as f64;
+                    prediction.map_or(own, |p| own + p[j])
+                })
+                .collect();
+            let mut c = vec![0.0; rr * k];
+            let mut table = vec![0.0; rr];
+            for t in 0..k {
+                idct2(&synthesis, r, &rebuilt[t * rr..(t + 1) * rr], &mut table);
+                for p in 0..rr {
+                    c[p * k + t] = table[p];
+                }
+            }
+            let error = self.target.error_of(i, &c, self.basis, k, self.norms[i]);
+            Quantised {
+                step,
+                levels,
+                rebuilt,
+                error,
+            }
         };
         let (mut lo, mut hi) = (q_min.ln(), (largest.max(1e-30) * 4.0).ln());
-        let (lv, e) = error_at(lo.exp());
-        let mut best = (lo.exp() as f32, lv, e);
-        if e <= max_error {
-            for _ in 0..60 {
-                let mid = 0.5 * (lo + hi);
-                let (lv, e) = error_at(mid.exp());
-                if e <= max_error {
-                    lo = mid;
-                    best = (mid.exp() as f32, lv, e);
-                } else {
-                    hi = mid;
-                }
-                if hi - lo < 0.003 {
-                    break;
-                }
-            }
-        } else {
-            met = false;
+        let mut best = at(lo.exp());
+        if best.error > budget {
+            return (best, false);
         }
-        steps[i * k..(i + 1) * k].fill(best.0);
-        levels[i * k * rr..(i + 1) * k * rr].copy_from_slice(&best.1);
-        errors[i] = best.2;
-    }
-    Coded {
-        transform,
-        steps,
-        levels,
-        errors,
-        met,
+        for _ in 0..60 {
+            let mid = 0.5 * (lo + hi);
+            let candidate = at(mid.exp());
+            if candidate.error <= budget {
+                lo = mid;
+                best = candidate;
+            } else {
+                hi = mid;
+            }
+            if hi - lo < 0.003 {
+                break;
+            }
+        }
+        (best, true)
     }
 }
 
@@ -734,26 +837,6 @@ fn quantise(freq: &[f64], q: f64, previous: Option<&[i32]>, r: usize, k: usize) 
             let m = ((v / q).abs() + 0.5 - zone).floor().clamp(0.0, lim);
             out[t * rr + p] = m.copysign(v) as i32;
         }
-    }
-    out
-}
-
-/// The tables a decoder rebuilds from `levels` at step q (as stored: `f32`).
-fn dequantise_tables(
-    levels: &[i32],
-    q: f32,
-    synthesis: &[f64],
-    r: usize,
-    tables: usize,
-) -> Vec<f64> {
-    let rr = r * r;
-    let mut out = vec![0.0; tables * rr];
-    let mut c = vec![0.0; rr];
-    for t in 0..tables {
-        for (cv, &z) in c.iter_mut().zip(&levels[t * rr..(t + 1) * rr]) {
-            *cv = q as f64 * z as f64;
-        }
-        idct2(synthesis, r, &c, &mut out[t * rr..(t + 1) * rr]);
     }
     out
 }

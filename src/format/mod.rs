@@ -30,14 +30,15 @@ pub const SIGNATURE: [u8; 10] = [0x89, b'S', b'B', b'R', b'D', b'F', 0x0D, 0x0A,
 /// The major version this crate reads and writes; a file with another major version is refused
 /// as unsupported.
 pub const VERSION_MAJOR: u16 = 1;
-/// The newest minor version this crate reads and writes. A file is written as 1.6 when its
+/// The newest minor version this crate reads and writes. A file is written as 1.7 when its
+/// warped tables carry prediction flags (`WARP` arrangement 2), as 1.6 when its
 /// warped tables' payload is range-coded, as 1.5 when its
 /// warped tables are coded in the wavelet transform, as 1.4 when it holds warped tables
 /// (`WARP`) in the DCT, as 1.3 when its
 /// records are compact (one `RECS` chunk), as 1.2 when it holds an anisotropic microfacet lobe
 /// (kind 5), as 1.1 when it uses a 1.1 feature (a wavelength range, [`FLAG_WAVELENGTH_RANGE`],
 /// or a factor model, `FACT`); otherwise it is 1.0, byte for byte.
-pub const VERSION_MINOR: u16 = 6;
+pub const VERSION_MINOR: u16 = 7;
 
 /// `HEAD` flag bit 0: only φi = 0 is stored; other azimuths are answered by rotation.
 pub const FLAG_ISOTROPIC: u32 = 1;
@@ -99,6 +100,9 @@ pub const VERSION_MINOR_WAVELET: u16 = 5;
 /// The minor version of files whose warped tables' integers are range-coded (`WARP` layout
 /// bit 3) instead of deflated.
 pub const VERSION_MINOR_RANGE: u16 = 6;
+/// The minor version of files whose warped tables may be predicted from the previous
+/// incidence's (`WARP` arrangement 2, range-coded only).
+pub const VERSION_MINOR_PREDICTED: u16 = 7;
 /// `SBAS` precision code of a quantised, range-coded basis (version 1.6, §3.2).
 pub const SBAS_QUANTISED: u8 = 3;
 

@@ -10,8 +10,11 @@ use crate::model::Precision;
 use miniz_oxide::inflate::core::{decompress, inflate_flags, DecompressorOxide};
 use miniz_oxide::inflate::TINFLStatus;
 
-/// The only arrangement defined (the low three bits of `layout`): isotropic tables.
+/// The arrangement (the low three bits of `layout`) of isotropic tables, each standing alone.
 pub(crate) const LAYOUT_ISOTROPIC: u8 = 1;
+/// The arrangement (format 1.7) of isotropic tables with a prediction flag per incidence: a
+/// flagged incidence's coefficients are the difference to the previous incidence's.
+pub(crate) const LAYOUT_ISOTROPIC_PREDICTED: u8 = 2;
 /// `layout` bit 3 (format 1.6): the payload is range-coded (`super::warp_levels`), not zlib.
 pub(crate) const LAYOUT_RANGE_CODED: u8 = 8;
 
@@ -30,10 +33,10 @@ pub(super) fn read_warped(
     limits: &super::Limits,
 ) -> Result<WarpedModel> {
     let layout = f.u8("layout")?;
-    if layout & 0x07 != LAYOUT_ISOTROPIC {
+    let arrangement = layout & 0x07;
+    if arrangement != LAYOUT_ISOTROPIC && arrangement != LAYOUT_ISOTROPIC_PREDICTED {
         return Err(f.unsupported(format!(
-            "unknown warped-table arrangement {} (layout {layout:#04x})",
-            layout & 0x07
+            "unknown warped-table arrangement {arrangement} (layout {layout:#04x})"
         )));
     }
     let coding = if layout & LAYOUT_RANGE_CODED != 0 {
@@ -45,6 +48,18 @@ pub(super) fn read_warped(
         return Err(f.malformed(format!(
             "a range-coded payload (layout {layout:#04x}) is a 1.{} feature, in a 1.{minor} file",
             super::VERSION_MINOR_RANGE
+        )));
+    }
+    let predicted = arrangement == LAYOUT_ISOTROPIC_PREDICTED;
+    if predicted && minor < super::VERSION_MINOR_PREDICTED {
+        return Err(f.malformed(format!(
+            "prediction flags (layout {layout:#04x}) are a 1.{} feature, in a 1.{minor} file",
+            super::VERSION_MINOR_PREDICTED
+        )));
+    }
+    if predicted && coding != PayloadCoding::Range {
+        return Err(f.malformed(format!(
+            "prediction flags (layout {layout:#04x}) need a range-coded payload (bit 3)"
         )));
     }
     let transform = TableTransform::from_code(layout >> 4).ok_or_else(|| {
@@ -102,7 +117,7 @@ pub(super) fn read_warped(
             f.remaining()
         )));
     }
-    let (mut ndf, mut steps) = (Vec::new(), Vec::new());
+    let (mut ndf, mut steps, mut flags_read) = (Vec::new(), Vec::new(), Vec::new());
     if coding == PayloadCoding::Deflate {
         ndf = (0..m)
             .map(|_| f.stored(ndf_precision, 1.0, "ndf"))
@@ -135,7 +150,8 @@ pub(super) fn read_warped(
             // Each coded bit costs at least −log2(4081/4096) = 1/189 of a bit, so P bytes hold
             // at most 1512·P decisions: more integers than 1600·P cannot be there, which bounds
             // what is allocated by the bytes present.
-            let integers = m as u64 + (n * k) as u64 + values;
+            let flags = if predicted { n as u64 - 1 } else { 0 };
+            let integers = m as u64 + (n * k) as u64 + flags + values;
             if integers > 1600 * p as u64 {
                 return Err(format_error(format!(
                     "a range-coded payload of {p} bytes cannot hold {integers} integers \
@@ -147,12 +163,13 @@ pub(super) fn read_warped(
                 m,
                 ndf_precision,
                 n * k,
+                predicted.then_some(n),
                 k,
                 r,
                 transform,
             )
             .map_err(format_error)?;
-            (ndf, steps) = (decoded.ndf, decoded.steps);
+            (ndf, steps, flags_read) = (decoded.ndf, decoded.steps, decoded.predicted);
             decoded.levels
         }
     };
@@ -167,6 +184,7 @@ pub(super) fn read_warped(
         ndf,
         steps,
         levels,
+        predicted: flags_read,
     })
 }
 
@@ -272,7 +290,12 @@ pub(super) fn warp_chunk(w: &WarpedModel, k: usize) -> Vec<u8> {
         PayloadCoding::Deflate => 0,
         PayloadCoding::Range => LAYOUT_RANGE_CODED,
     };
-    d.push(LAYOUT_ISOTROPIC | coded | w.transform.code() << 4);
+    let arrangement = if w.predicted.is_empty() {
+        LAYOUT_ISOTROPIC
+    } else {
+        LAYOUT_ISOTROPIC_PREDICTED
+    };
+    d.push(arrangement | coded | w.transform.code() << 4);
     d.push(w.ndf_precision.code());
     d.extend_from_slice(&(w.grid as u16).to_le_bytes());
     d.extend_from_slice(&(w.warp_grid as u16).to_le_bytes());
@@ -303,6 +326,7 @@ pub(crate) fn payload(w: &WarpedModel, k: usize) -> Vec<u8> {
             &super::warp_payload::Payload {
                 ndf: w.ndf.clone(),
                 steps: w.steps.clone(),
+                predicted: w.predicted.clone(),
                 levels: w.levels.clone(),
             },
             w.ndf_precision,

@@ -241,6 +241,8 @@ pub(crate) struct Payload {
     pub ndf: Vec<f32>,
     /// The N·K quantisation steps.
     pub steps: Vec<f32>,
+    /// The N prediction flags (format 1.7), or none (empty: the payload codes no flags).
+    pub predicted: Vec<bool>,
     /// The N·K·R² integers, row-major per table.
     pub levels: Vec<i32>,
 }
@@ -267,6 +269,10 @@ pub(crate) fn encode_payload(
         side.put(&mut enc, bits - last);
         last = bits;
     }
+    let mut flag = BitModel::default();
+    for &f in p.predicted.iter().skip(1) {
+        enc.bit(&mut flag, f);
+    }
     let walk = Walk::new(r, k, transform);
     let rr = r * r;
     let mut zero = [[BitModel::default(); NEIGHBOURS]; CLASSES];
@@ -281,15 +287,16 @@ pub(crate) fn encode_payload(
     enc.finish()
 }
 
-/// Decodes a payload of `m` NDF values in `precision`, `tables` = N·K steps and tables of side
-/// `r` and `k` terms; the stream must end exactly at the end of `bytes`. The values' own rules
-/// (finite, ≥ 0) are the caller's.
+/// Decodes a payload of `m` NDF values in `precision`, `tables` = N·K steps, prediction flags
+/// for `flags` = Some(N) incidences (format 1.7) and tables of side `r` and `k` terms; the stream
+/// must end exactly at the end of `bytes`. The values' own rules (finite, ≥ 0) are the caller's.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn decode_payload(
     bytes: &[u8],
     m: usize,
     precision: Precision,
     tables: usize,
+    flags: Option<usize>,
     k: usize,
     r: usize,
     transform: TableTransform,
@@ -330,6 +337,14 @@ pub(crate) fn decode_payload(
         steps.push(f32::from_bits(v as u32));
         last = v;
     }
+    let mut predicted = Vec::with_capacity(flags.unwrap_or(0));
+    if let Some(n) = flags {
+        predicted.push(false);
+        let mut flag = BitModel::default();
+        for _ in 1..n {
+            predicted.push(dec.bit(&mut flag).map_err(why)?);
+        }
+    }
     let walk = Walk::new(r, k, transform);
     let rr = r * r;
     let mut levels = vec![0i32; tables * rr];
@@ -353,7 +368,12 @@ pub(crate) fn decode_payload(
             bytes.len() - dec.consumed()
         ));
     }
-    Ok(Payload { ndf, steps, levels })
+    Ok(Payload {
+        ndf,
+        steps,
+        predicted,
+        levels,
+    })
 }
 
 #[cfg(test)]
@@ -390,22 +410,27 @@ mod tests {
             })
             .collect();
         let steps = vec![0.25, 0.25, 0.0, 0.031, 0.031, f32::MAX];
-        for t in [TableTransform::Dct, TableTransform::Wavelet53] {
-            for precision in [Precision::F16, Precision::F32] {
-                let p = Payload {
-                    ndf: ndf.clone(),
-                    steps: steps.clone(),
-                    levels: levels.clone(),
-                };
-                let bytes = encode_payload(&p, precision, k, r, t);
-                let back = decode_payload(&bytes, ndf.len(), precision, n * k, k, r, t).unwrap();
-                assert_eq!(back, p);
-                // Truncated or extended streams are refused, not misread.
-                let short = &bytes[..bytes.len() - 1];
-                assert!(decode_payload(short, ndf.len(), precision, n * k, k, r, t).is_err());
-                let mut longer = bytes.clone();
-                longer.push(0);
-                assert!(decode_payload(&longer, ndf.len(), precision, n * k, k, r, t).is_err());
+        // Without prediction flags (1.6) and with them (1.7).
+        for predicted in [vec![], vec![false, true]] {
+            for t in [TableTransform::Dct, TableTransform::Wavelet53] {
+                for precision in [Precision::F16, Precision::F32] {
+                    let p = Payload {
+                        ndf: ndf.clone(),
+                        steps: steps.clone(),
+                        predicted: predicted.clone(),
+                        levels: levels.clone(),
+                    };
+                    let flags = (!predicted.is_empty()).then_some(n);
+                    let read =
+                        |b: &[u8]| decode_payload(b, ndf.len(), precision, n * k, flags, k, r, t);
+                    let bytes = encode_payload(&p, precision, k, r, t);
+                    assert_eq!(read(&bytes).unwrap(), p);
+                    // Truncated or extended streams are refused, not misread.
+                    assert!(read(&bytes[..bytes.len() - 1]).is_err());
+                    let mut longer = bytes.clone();
+                    longer.push(0);
+                    assert!(read(&longer).is_err());
+                }
             }
         }
     }
@@ -426,12 +451,22 @@ mod tests {
                     }
                 })
                 .collect();
-            let _ = decode_payload(&bytes, 5, Precision::F16, 6, 3, 4, TableTransform::Dct);
+            let _ = decode_payload(
+                &bytes,
+                5,
+                Precision::F16,
+                6,
+                Some(2),
+                3,
+                4,
+                TableTransform::Dct,
+            );
             let _ = decode_payload(
                 &bytes,
                 5,
                 Precision::F32,
                 6,
+                None,
                 2,
                 4,
                 TableTransform::Wavelet53,

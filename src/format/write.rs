@@ -63,7 +63,8 @@ fn push_chunk(out: &mut Vec<u8>, kind: [u8; 4], data: &[u8]) {
 /// its wavelengths are evenly spaced; a factor model (`FACT`) is a 1.1 feature and an
 /// anisotropic lobe (kind 5) a 1.2 feature whatever the material asks. Compact records
 /// (`RECS`, 1.3) are used exactly when the material allows 1.3; warped tables (`WARP`) make a
-/// file 1.4, 1.5 with the wavelet transform, 1.6 with a range-coded payload. A file without 1.1 features is written as 1.0,
+/// file 1.4, 1.5 with the wavelet transform, 1.6 with a range-coded payload, 1.7 with prediction
+/// flags. A file without 1.1 features is written as 1.0,
 /// byte for byte. Reading the file back gives this minor version.
 pub fn written_version(m: &Material) -> (u16, bool) {
     let range = m.version_minor >= 1 && is_wavelength_range(&m.wavelengths);
@@ -71,6 +72,7 @@ pub fn written_version(m: &Material) -> (u16, bool) {
         // Warped tables are a 1.4 feature whatever the material asks, as FACT is 1.1's; their
         // wavelet transform a 1.5 one.
         let minor = match (w.coding, w.transform) {
+            _ if !w.predicted.is_empty() => VERSION_MINOR_PREDICTED,
             _ if quantised_basis(m) => VERSION_MINOR_RANGE,
             (PayloadCoding::Range, _) => VERSION_MINOR_RANGE,
             (_, TableTransform::Dct) => VERSION_MINOR_WARP,

@@ -123,6 +123,12 @@ pub struct WarpedModel {
     /// n(i, k, a, b): table (i, k) at (i·K + k)·R², its R² integers in row-major coefficient
     /// order (a·R + b), *not* the file's order (the format module reorders).
     pub levels: Vec<i32>,
+    /// Format 1.7 (`layout` arrangement 2): per incidence, whether its tables' coefficients are
+    /// the difference to the previous incidence's (`predicted[i]`, never for i = 0). Empty in a
+    /// file without the flags (arrangement 1), where every table stands alone. Neighbouring
+    /// incidences of a measurement share most of their shape (RGL files repeat their last
+    /// one), so the difference is often far smaller than the table.
+    pub predicted: Vec<bool>,
 }
 
 impl WarpedModel {
@@ -202,6 +208,20 @@ impl WarpedModel {
         {
             return Err(format!("a table coefficient {z} outside ±2³⁰"));
         }
+        if !self.predicted.is_empty() {
+            if self.predicted.len() != n {
+                return Err(format!(
+                    "{} prediction flags for {n} incidences",
+                    self.predicted.len()
+                ));
+            }
+            if self.predicted[0] {
+                return Err("the first incidence predicted (it has none before it)".into());
+            }
+            if self.coding != PayloadCoding::Range {
+                return Err("prediction flags in a payload that is not range-coded".into());
+            }
+        }
         Ok(())
     }
 
@@ -209,6 +229,12 @@ impl WarpedModel {
     pub fn boxed_heap_bytes(&self) -> usize {
         std::mem::size_of::<Self>()
             + 4 * (self.ndf.capacity() + self.steps.capacity() + self.levels.capacity())
+            + self.predicted.capacity()
+    }
+
+    /// Whether incidence i's coefficients are the difference to incidence i − 1's.
+    pub fn is_predicted(&self, i: usize) -> bool {
+        self.predicted.get(i).copied().unwrap_or(false)
     }
 
     /// Number of tables N·K.
@@ -216,18 +242,38 @@ impl WarpedModel {
         self.steps.len()
     }
 
+    /// The coefficients of every table (same layout as `levels`), in binary64: q(i, k)·n, plus
+    /// table (i − 1, k)'s coefficients where incidence i is predicted (`spec/FORMAT.md` §3.10).
+    pub fn coefficients(&self) -> Vec<f64> {
+        let rr = self.grid * self.grid;
+        let k = self
+            .steps
+            .len()
+            .checked_div(self.predicted.len())
+            .unwrap_or(0);
+        let mut coef = vec![0.0; self.levels.len()];
+        for (t, q) in self.steps.iter().enumerate() {
+            let predicted = k > 0 && t >= k && self.is_predicted(t / k);
+            for p in 0..rr {
+                let own = *q as f64 * self.levels[t * rr + p] as f64;
+                coef[t * rr + p] = if predicted {
+                    own + coef[(t - k) * rr + p]
+                } else {
+                    own
+                };
+            }
+        }
+        coef
+    }
+
     /// The decoded tables, N·K of R² values each (row-major, rows along s_y), in binary64.
     pub fn decode_tables(&self) -> Vec<f64> {
         let r = self.grid;
         let basis = self.transform.synthesis(r);
-        let mut out = vec![0.0; self.levels.len()];
-        let mut coef = vec![0.0; r * r];
-        for (t, q) in self.steps.iter().enumerate() {
-            let lv = &self.levels[t * r * r..(t + 1) * r * r];
-            for (c, &z) in coef.iter_mut().zip(lv) {
-                *c = *q as f64 * z as f64;
-            }
-            idct2(&basis, r, &coef, &mut out[t * r * r..(t + 1) * r * r]);
+        let coef = self.coefficients();
+        let mut out = vec![0.0; coef.len()];
+        for (c, o) in coef.chunks_exact(r * r).zip(out.chunks_exact_mut(r * r)) {
+            idct2(&basis, r, c, o);
         }
         out
     }

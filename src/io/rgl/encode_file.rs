@@ -8,7 +8,8 @@ use crate::encode::encoder::MetaLevel;
 use crate::encode::settings::{EncodeSettings, WarpedChoice};
 use crate::encode::warped::{encode_warped, WarpedOptions, DEFAULT_MAX_ERROR};
 use crate::error::{Error, Result};
-use crate::format::{VERSION_MINOR_RANGE, VERSION_MINOR_WARP, VERSION_MINOR_WAVELET};
+use crate::format::{VERSION_MINOR_PREDICTED, VERSION_MINOR_RANGE};
+use crate::format::{VERSION_MINOR_WARP, VERSION_MINOR_WAVELET};
 use crate::model::warped::{PayloadCoding, TableTransform};
 use std::path::PathBuf;
 
@@ -124,6 +125,7 @@ pub fn encode_warped_file(
         terms: settings.encoder.terms,
         transform,
         coding,
+        predict: minor >= VERSION_MINOR_PREDICTED,
         // A default budget never codes below the measurement's own noise; an explicit one
         // means what it says.
         noise_floor: settings.max_error.is_none(),
