@@ -109,6 +109,14 @@ pub(crate) enum Place {
     Fill { incidence: [u32; 2], index: u32 },
 }
 
+/// Whether two runs of keys are equal, compared element by element: `==` on integer slices
+/// compiles to a `bcmp` call, which fuzz builds intercept at a cost per call (a hash of both
+/// operands for libFuzzer's comparison table); over one comparison per sample that was 15% of
+/// the `rgl_full` target's time. `cmp` on `u64` slices compares in place.
+fn same(a: &[u64], b: &[u64]) -> bool {
+    a.cmp(b).is_eq()
+}
+
 pub(crate) fn build_sample_set(
     mut samples: Vec<Sample>,
     names: &[String],
@@ -146,7 +154,7 @@ pub(crate) fn build_sample_set(
     };
     let f = f64::from_bits;
     for w in samples.windows(2) {
-        if w[0].key == w[1].key {
+        if same(&w[0].key, &w[1].key) {
             let k = w[1].key;
             return Err(Error::Input(format!(
                 "{}: sample (theta_i {}, phi_i {}, theta_o {}, phi_o {}, {} nm) is given twice; \
@@ -174,12 +182,12 @@ pub(crate) fn build_sample_set(
         let end = start
             + samples[start..]
                 .iter()
-                .take_while(|s| &s.key[..4] == dir)
+                .take_while(|s| same(&s.key[..4], dir))
                 .count();
         let wls: Vec<u64> = samples[start..end].iter().map(|s| s.key[4]).collect();
         match &reference {
             None => reference = Some((wls, start)),
-            Some((r, at)) if *r != wls => {
+            Some((r, at)) if !same(r, &wls) => {
                 let extra: Vec<String> = wls
                     .iter()
                     .filter(|w| !r.contains(w))
