@@ -701,9 +701,15 @@ class SbrdfFile:
         self.minor, flags, basis, res9, level, conv, k, res14 = r.take("HIBBBBHH")
         lmin, lmax, w, n = r.take("ddII")
         # §6: flags before the length (a flag may change HEAD's layout: bit 1, §3.1).
-        if flags & ~3:
-            raise unsupported("%s: unknown flag bits 0x%x (§4)" % (where, flags & ~3))
+        if flags & ~7:
+            raise unsupported("%s: unknown flag bits 0x%x (§4)" % (where, flags & ~7))
         wrange = bool(flags & 2)
+        theta_only = bool(flags & 4)  # 1.7: incidences as θi alone, isotropic files only
+        if theta_only and not flags & 1:
+            raise malformed("%s: flag bit 2 without the isotropic flag (§3.1)" % where)
+        if theta_only and self.minor < 7:
+            raise malformed("%s: flag bit 2 (1.7) in a 1.%d file (§3.1)" % (where, self.minor))
+        per = 4 if theta_only else 8
         if basis not in (1, 2, 3):
             raise unsupported("%s: unknown spectral basis %d (§4)" % (where, basis))
         if conv != 1:
@@ -721,9 +727,9 @@ class SbrdfFile:
         if wrange and w < 2:
             raise malformed("%s: wavelength range with W = %d < 2 (§3.1)" % (where, w))
         stored = 2 if wrange else w
-        if len(body) != 40 + 4 * stored + 8 * n:
+        if len(body) != 40 + 4 * stored + per * n:
             raise malformed("%s: length %d, layout needs %d (§3.1)"
-                            % (where, len(body), 40 + 4 * stored + 8 * n))
+                            % (where, len(body), 40 + 4 * stored + per * n))
         if wrange:
             # §3.1: λ_i = f32(λ_0 + (i·(λ_{W−1} − λ_0))/(W − 1)), binary64, in that order.
             first, last = r.take("2f")
@@ -736,7 +742,10 @@ class SbrdfFile:
         raw = body[40 + 4 * stored:]
         inc = []
         for i in range(n):
-            th, ph = struct.unpack_from("<ff", raw, 8 * i)
+            if theta_only:
+                (th,), ph = struct.unpack_from("<f", raw, 4 * i), 0.0
+            else:
+                th, ph = struct.unpack_from("<ff", raw, 8 * i)
             if not (0 <= th <= 90 and 0 <= ph < 360) or is_neg_zero(th) or is_neg_zero(ph):
                 raise malformed("%s: incidence %d (%r, %r) out of range (§3.1)" % (where, i, th, ph))
             if inc and (th, ph) <= inc[-1]:

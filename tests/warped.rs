@@ -541,19 +541,79 @@ fn a_range_coded_payload_is_refused_in_a_1_5_file() {
     assert!(e.contains("cannot hold") && e.contains("malformed"), "{e}");
 }
 
+/// The file with its `HEAD` rewritten: `minor` and the incidences as (θi, φi = 0) pairs, flag
+/// bit 2 cleared (what a 1.6 writer would write), the rest unchanged.
+fn with_pairs_in_head(bytes: &[u8], minor: u16) -> Vec<u8> {
+    let (at, len) = chunk(bytes, b"HEAD");
+    let head = &bytes[at..at + len];
+    let flags = u32::from_le_bytes(head[4..8].try_into().unwrap());
+    assert!(flags & 4 != 0, "incidences as θi alone");
+    let n = u32::from_le_bytes(head[36..40].try_into().unwrap()) as usize;
+    let thetas = &head[len - 4 * n..];
+    let mut d = head[..len - 4 * n].to_vec();
+    d[2..4].copy_from_slice(&minor.to_le_bytes());
+    d[4..8].copy_from_slice(&(flags & !4).to_le_bytes());
+    for t in thetas.chunks_exact(4) {
+        d.extend_from_slice(t);
+        d.extend_from_slice(&0f32.to_le_bytes());
+    }
+    let mut out = bytes[..at - 8].to_vec();
+    out.extend_from_slice(&(d.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"HEAD");
+    out.extend_from_slice(&d);
+    out.extend_from_slice(&crc32fast::hash(&[&b"HEAD"[..], &d].concat()).to_le_bytes());
+    out.extend_from_slice(&bytes[at + len + 4..]);
+    out
+}
+
+#[test]
+fn a_1_7_head_holds_theta_alone_and_is_refused_where_it_does_not_belong() {
+    let good = std::fs::read(samples_dir().join("golden/rgl_ibiza_pred_v17.sbrdf")).unwrap();
+    let (at, len) = chunk(&good, b"HEAD");
+    // 40 fixed bytes, a wavelength range (2 × 4) and 8 θi of 4 bytes: 32 fewer than pairs.
+    assert_eq!(len, 40 + 8 + 4 * 8);
+    // The same file with (θi, 0) pairs and minor 7 reads as the same material.
+    let pairs = with_pairs_in_head(&good, 7);
+    assert_eq!(pairs.len(), good.len() + 32);
+    let (a, b) = (
+        sbrdf::read_material(&good, &Default::default()).unwrap(),
+        sbrdf::read_material(&pairs, &Default::default()).unwrap(),
+    );
+    assert_eq!(a.records, b.records);
+    assert_eq!(a.warped, b.warped);
+    // Flag bit 2 in a 1.6 file, and without the isotropic flag: malformed.
+    for (minor, flags, what) in [(6u16, 7u32, "1.7 feature"), (7, 6, "without the isotropic")] {
+        let mut bad = good.clone();
+        bad[at + 2..at + 4].copy_from_slice(&minor.to_le_bytes());
+        bad[at + 4..at + 8].copy_from_slice(&flags.to_le_bytes());
+        fix_crc(&mut bad, at, len);
+        let e = Decoder::from_bytes(&bad).unwrap_err().to_string();
+        assert!(e.contains(what) && e.contains("malformed"), "{e}");
+    }
+    // Bit 3, which no version defines: unsupported.
+    let mut bad = good.clone();
+    bad[at + 4] |= 8;
+    fix_crc(&mut bad, at, len);
+    let e = Decoder::from_bytes(&bad).unwrap_err().to_string();
+    assert!(
+        e.contains("unknown flag bits") && e.contains("unsupported"),
+        "{e}"
+    );
+}
+
 #[test]
 fn prediction_flags_are_refused_in_a_1_6_file_without_range_coding_and_as_arrangement_3() {
     let good = std::fs::read(samples_dir().join("golden/rgl_ibiza_pred_v17.sbrdf")).unwrap();
     assert!(Decoder::from_bytes(&good).is_ok());
+    // A 1.6 HEAD (pairs, no flag bit 2) before the 1.7 WARP chunk.
+    let old = with_pairs_in_head(&good, 6);
+    let e = Decoder::from_bytes(&old).unwrap_err().to_string();
+    assert!(
+        e.contains("prediction flags") && e.contains("1.7 feature") && e.contains("malformed"),
+        "{e}"
+    );
     let (at, len) = warp_chunk(&good);
     assert_eq!(good[at] & 0x0F, 0x0A, "arrangement 2, range-coded");
-    // HEAD's version_minor 7 → 6.
-    let mut old = good.clone();
-    old[20] = 6;
-    let head_len = u32::from_le_bytes(old[10..14].try_into().unwrap()) as usize;
-    fix_crc(&mut old, 18, head_len);
-    let e = Decoder::from_bytes(&old).unwrap_err().to_string();
-    assert!(e.contains("1.7 feature") && e.contains("malformed"), "{e}");
     // Arrangement 2 with bit 3 cleared (zlib): the flags have nowhere to be.
     let mut deflated = good.clone();
     deflated[at] &= !0x08;

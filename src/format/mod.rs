@@ -45,6 +45,9 @@ pub const FLAG_ISOTROPIC: u32 = 1;
 /// `HEAD` flag bit 1 (version 1.1): the wavelengths are evenly spaced and `HEAD` stores the
 /// first and the last only ([`range_wavelengths`]).
 pub const FLAG_WAVELENGTH_RANGE: u32 = 2;
+/// `HEAD` flag bit 2 (version 1.7, isotropic files only): the incidences are stored as their
+/// θi alone (every φi is +0 in an isotropic file), 4 bytes each instead of 8.
+pub const FLAG_THETA_ONLY: u32 = 4;
 
 /// The W wavelengths of a range from its first and last (`spec/FORMAT.md` §3.1): λ_i = λ_0 +
 /// (i·(λ_{W−1} − λ_0))/(W − 1) in binary64, in that order, rounded to the nearest f32.

@@ -25,10 +25,22 @@ fn read_head(f: &mut Fields) -> Result<Head> {
     // Flags before anything else: a flag of a newer minor version may change HEAD's layout
     // (spec/FORMAT.md §7), so an unknown one is reported as unsupported, not as a bad length.
     let flags = f.u32("flags")?;
-    if flags & !(FLAG_ISOTROPIC | FLAG_WAVELENGTH_RANGE) != 0 {
+    if flags & !(FLAG_ISOTROPIC | FLAG_WAVELENGTH_RANGE | FLAG_THETA_ONLY) != 0 {
         return Err(f.unsupported(format!("unknown flag bits {flags:#x} set")));
     }
     let range = flags & FLAG_WAVELENGTH_RANGE != 0;
+    let theta_only = flags & FLAG_THETA_ONLY != 0;
+    if theta_only && flags & FLAG_ISOTROPIC == 0 {
+        return Err(f.malformed(
+            "flag bit 2 (incidences as θi alone) without the isotropic flag".to_string(),
+        ));
+    }
+    if theta_only && minor < VERSION_MINOR_PREDICTED {
+        return Err(f.malformed(format!(
+            "flag bit 2 (incidences as θi alone) is a 1.{VERSION_MINOR_PREDICTED} feature, in a \
+             1.{minor} file"
+        )));
+    }
     let basis_code = f.u8("spectral_basis")?;
     let basis = SpectralBasis::from_code(basis_code)
         .ok_or_else(|| f.unsupported(format!("unknown spectral basis code {basis_code}")))?;
@@ -58,7 +70,7 @@ fn read_head(f: &mut Fields) -> Result<Head> {
     // Check the counts against the bytes present before allocating anything for them. A range
     // stores 2 wavelengths of W (at most 65 536, so W values are bounded by the format).
     let stored = if range { 2 } else { w as u64 };
-    let need = stored * 4 + (n as u64) * 8;
+    let need = stored * 4 + (n as u64) * if theta_only { 4 } else { 8 };
     if need != f.remaining() as u64 {
         return Err(f.malformed(format!(
             "{stored} stored wavelengths and {n} incident directions need {need} bytes, the \
@@ -82,7 +94,9 @@ fn read_head(f: &mut Fields) -> Result<Head> {
     };
     let mut incidences = Vec::with_capacity(n);
     for _ in 0..n {
-        incidences.push([f.f32("theta_i")?, f.f32("phi_i")?]);
+        let theta = f.f32("theta_i")?;
+        let phi = if theta_only { 0.0 } else { f.f32("phi_i")? };
+        incidences.push([theta, phi]);
     }
     f.finish()?;
     Ok(Head {

@@ -135,6 +135,11 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     if range {
         flags |= FLAG_WAVELENGTH_RANGE;
     }
+    // Version 1.7 stores an isotropic file's incidences as θi alone (every φi is +0).
+    let theta_only = m.isotropic && minor >= VERSION_MINOR_PREDICTED;
+    if theta_only {
+        flags |= FLAG_THETA_ONLY;
+    }
     let mut d = Vec::with_capacity(HEAD_FIXED + 4 * m.wavelengths.len() + 8 * m.records.len());
     d.extend_from_slice(&VERSION_MAJOR.to_le_bytes());
     d.extend_from_slice(&minor.to_le_bytes());
@@ -160,7 +165,9 @@ pub fn write_material(m: &Material) -> Result<Vec<u8>> {
     }
     for r in &m.records {
         d.extend_from_slice(&r.theta_i.to_le_bytes());
-        d.extend_from_slice(&r.phi_i.to_le_bytes());
+        if !theta_only {
+            d.extend_from_slice(&r.phi_i.to_le_bytes());
+        }
     }
     push_chunk(&mut out, CHUNK_HEAD, &d);
 
