@@ -497,10 +497,10 @@ def decode_range_payload(data, m, ndf_prec, tables, k, grid, transform, where, f
             raise malformed("%s: step bit pattern %d out of range (§3.10)" % (where, last))
         steps.append(struct.unpack("<f", struct.pack("<I", last))[0])
     # 3. (1.7, arrangement 2) one adaptive bit per incidence after the first, one model
-    predicted = [False]
+    predicted = [False] * (tables // k)  # arrangement 1: no incidence predicted
     model = [2048]
-    for _ in range(1, flags or 0):
-        predicted.append(dec.bit(model, 0) == 1)
+    for i in range(1, flags or 0):
+        predicted[i] = dec.bit(model, 0) == 1
     # 4. tables, in the transform's order; contexts by frequency class and neighbours
     R = grid
     if transform == 0:
