@@ -261,15 +261,6 @@ fn resampled_rgl(bytes: &[u8], n: usize) -> Vec<u8> {
 /// A material as a function of (incident, outgoing, wavelength index).
 type MaterialFn = dyn Fn((f64, f64), (f64, f64), usize) -> f64;
 
-fn unit_vector(theta_deg: f64, phi_deg: f64) -> [f32; 3] {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    [
-        (t.sin() * p.cos()) as f32,
-        (t.sin() * p.sin()) as f32,
-        t.cos() as f32,
-    ]
-}
-
 /// Golden files: decoded, they must reproduce the analytic material they were encoded from,
 /// with exactly the error each record states. The reference values come from the Phong
 /// formula, not from the decoder.
@@ -308,23 +299,7 @@ fn golden_files_decode_to_their_source_material() {
                 source = resampled_rgl(&source, 64);
             }
             let b = sbrdf::io::rgl::RglBsdf::from_bytes(&source).unwrap();
-            let (mut num, mut den) = (0.0, 0.0);
-            for s in b.samples(85.0, 89.0).unwrap() {
-                let viewer = unit_vector(s.theta_i, s.phi_i);
-                for (k, d) in s.directions.iter().enumerate() {
-                    let rgb =
-                        dec.eval_linear_srgb(unit_vector(d[0], d[1]), viewer, Default::default());
-                    // ρ·cos θ of the light: what a renderer sums, and what bounds the rendered
-                    // pixels (ρ alone grows as 1/cos θ toward the horizon).
-                    let c = d[0].to_radians().cos();
-                    for (got, want) in rgb.iter().zip(&s.values[3 * k..3 * k + 3]) {
-                        let (got, want) = (got * c, want.max(0.0) * c);
-                        num += (got - want) * (got - want);
-                        den += want * want;
-                    }
-                }
-            }
-            let e = (num / den).sqrt();
+            let e = rgl_error_at_nodes(&dec, &b);
             assert!(
                 e < 0.015,
                 "{file}: colour error {e} at the measurement's nodes"

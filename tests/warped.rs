@@ -5,7 +5,7 @@
 //! damage to the chunk behind a valid CRC.
 
 mod common;
-use common::{held, samples_dir, sbrdf, stderr, SLACK};
+use common::{held, rgl_error_at_nodes, samples_dir, sbrdf, stderr, unit, SLACK};
 use sbrdf::encode::samples::{ReadOptions, RgbToSpectrum};
 use sbrdf::encode::warped::{encode_warped, WarpedInput, WarpedOptions, DEFAULT_MAX_ERROR};
 use sbrdf::io::rgl::{read_warped, RglBsdf};
@@ -34,15 +34,6 @@ fn input(name: &str) -> WarpedInput {
         .unwrap()
         .unwrap()
         .input
-}
-
-fn unit(theta_deg: f64, phi_deg: f64) -> [f32; 3] {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    [
-        (t.sin() * p.cos()) as f32,
-        (t.sin() * p.sin()) as f32,
-        t.cos() as f32,
-    ]
 }
 
 struct Rng(u64);
@@ -469,17 +460,10 @@ fn the_range_coded_golden_holds_the_deflated_goldens_tables_value_for_value() {
 
 #[test]
 fn format_1_5_keeps_zlib_and_1_4_the_dct_with_the_same_values() {
-    let path =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/rgl/satin_rosaline_rgb.bsdf");
+    let path = data("satin_rosaline");
     let encode = |format: &str| {
-        let mut s = sbrdf::encode::settings::EncodeSettings::default();
-        s.set("rgb-to-spectrum", "jakob-hanika-2019").unwrap();
-        s.set("format", format).unwrap();
-        let o = sbrdf::io::rgl::encode_warped_file(std::slice::from_ref(&path), &s)
-            .unwrap()
-            .unwrap();
-        let m = sbrdf::read_material(&o.bytes, &sbrdf::Limits::default()).unwrap();
-        (m.version_minor, *m.warped.unwrap())
+        let (bytes, warped) = encode_rgl("satin_rosaline", format, None);
+        (u16::from_le_bytes([bytes[20], bytes[21]]), warped)
     };
     let (v6, new) = encode("1.6");
     let (v5, old) = encode("1.5");
@@ -651,25 +635,9 @@ fn encode_rgl(name: &str, format: &str, max_error: Option<&str>) -> (Vec<u8>, Wa
     (o.bytes, *m.warped.unwrap())
 }
 
-/// Relative L2 of a file's ρ·cos θ (light) against the measurement's at its own nodes, every
-/// incidence up to 85° pooled, in linear sRGB (what `tests/roundtrip.rs` holds the golden
-/// warped files to).
+/// [`rgl_error_at_nodes`] of a file's bytes.
 fn error_at_nodes(bytes: &[u8], b: &RglBsdf) -> f64 {
-    let dec = Decoder::from_bytes(bytes).unwrap();
-    let (mut num, mut den) = (0.0, 0.0);
-    for s in b.samples(85.0, 89.0).unwrap() {
-        let viewer = unit(s.theta_i, s.phi_i);
-        for (k, d) in s.directions.iter().enumerate() {
-            let rgb = dec.eval_linear_srgb(unit(d[0], d[1]), viewer, Default::default());
-            let c = d[0].to_radians().cos();
-            for (got, want) in rgb.iter().zip(&s.values[3 * k..3 * k + 3]) {
-                let (got, want) = (got * c, want.max(0.0) * c);
-                num += (got - want) * (got - want);
-                den += want * want;
-            }
-        }
-    }
-    (num / den).sqrt()
+    rgl_error_at_nodes(&Decoder::from_bytes(bytes).unwrap(), b)
 }
 
 #[test]

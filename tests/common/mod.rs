@@ -308,3 +308,36 @@ pub fn held(what: &str, got: f64, stated: f64) {
         "{what}: {got}, stated {stated} (bound {SLACK}×)"
     );
 }
+
+/// The unit vector at polar angle θ and azimuth φ (degrees), z the normal.
+pub fn unit(theta_deg: f64, phi_deg: f64) -> [f32; 3] {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    [
+        (t.sin() * p.cos()) as f32,
+        (t.sin() * p.sin()) as f32,
+        t.cos() as f32,
+    ]
+}
+
+/// Relative L2 of a decoded file's ρ·cos θ (light) against an RGL measurement's at the
+/// measurement's own nodes (the RGL reader's samples, Mitsuba's evaluation), every stored
+/// incidence up to [`sbrdf::io::rgl::MAX_THETA_I`] pooled, in linear sRGB. ρ·cos θ is what a
+/// renderer sums (ρ alone grows as 1/cos θ toward the horizon); negative measured values
+/// (noise) count as 0. The tables follow the viewing direction ("Warped tables"): the
+/// measurement's incidence is the decoder's ωo.
+pub fn rgl_error_at_nodes(dec: &sbrdf::Decoder, b: &sbrdf::io::rgl::RglBsdf) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for s in b.samples(sbrdf::io::rgl::MAX_THETA_I, 89.0).unwrap() {
+        let viewer = unit(s.theta_i, s.phi_i);
+        for (k, d) in s.directions.iter().enumerate() {
+            let rgb = dec.eval_linear_srgb(unit(d[0], d[1]), viewer, Default::default());
+            let c = d[0].to_radians().cos();
+            for (got, want) in rgb.iter().zip(&s.values[3 * k..3 * k + 3]) {
+                let (got, want) = (got * c, want.max(0.0) * c);
+                num += (got - want) * (got - want);
+                den += want * want;
+            }
+        }
+    }
+    (num / den).sqrt()
+}
