@@ -18,7 +18,8 @@ use crate::error::{Error, Result};
 use crate::model::basis_storage::{BasisStorage, QUANTISED_EXPONENTS};
 use crate::model::material::{IncidentRecord, Material};
 use crate::model::spectral::{BasisTable, SpectralBasis, SpectralSpace};
-use crate::model::warped::{dct2, idct2, PayloadCoding, TableTransform, WarpedModel, MAX_LEVEL};
+use crate::model::warped::{coefficient, dct2, idct2, PayloadCoding, TableTransform};
+use crate::model::warped::{WarpedModel, MAX_LEVEL};
 use crate::model::Precision;
 use half::f16;
 use nalgebra::{DMatrix, SymmetricEigen};
@@ -242,6 +243,7 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
     let code = |transform| {
         let tables = Tables {
             transform,
+            synthesis: transform.synthesis(r),
             target: &target,
             coef: &coef,
             basis: &basis,
@@ -349,6 +351,8 @@ impl Coded {
 /// incidences, with what measures their error.
 struct Tables<'a> {
     transform: TableTransform,
+    /// The transform's synthesis basis at side R, computed once.
+    synthesis: Vec<f64>,
     target: &'a Target<'a>,
     coef: &'a [f64],
     basis: &'a [f64],
@@ -458,7 +462,6 @@ impl Tables<'_> {
     ) -> (Quantised, bool) {
         let (r, k) = (self.target.r, self.k);
         let rr = r * r;
-        let synthesis = self.transform.synthesis(r);
         let residual: Vec<f64> = match prediction {
             Some(p) => f.iter().zip(p).map(|(a, b)| a - b).collect(),
             None => f.to_vec(),
@@ -471,15 +474,17 @@ impl Tables<'_> {
             let rebuilt: Vec<f64> = levels
                 .iter()
                 .enumerate()
-                .map(|(j, &z)| {
-                    let own = step as f64 * z as f64;
-                    prediction.map_or(own, |p| own + p[j])
-                })
+                .map(|(j, &z)| coefficient(step, z, prediction.map(|p| p[j])))
                 .collect();
             let mut c = vec![0.0; rr * k];
             let mut table = vec![0.0; rr];
             for t in 0..k {
-                idct2(&synthesis, r, &rebuilt[t * rr..(t + 1) * rr], &mut table);
+                idct2(
+                    &self.synthesis,
+                    r,
+                    &rebuilt[t * rr..(t + 1) * rr],
+                    &mut table,
+                );
                 for p in 0..rr {
                     c[p * k + t] = table[p];
                 }

@@ -252,15 +252,11 @@ impl WarpedModel {
             .checked_div(self.predicted.len())
             .unwrap_or(0);
         let mut coef = vec![0.0; self.levels.len()];
-        for (t, q) in self.steps.iter().enumerate() {
+        for (t, &q) in self.steps.iter().enumerate() {
             let predicted = k > 0 && t >= k && self.is_predicted(t / k);
             for p in 0..rr {
-                let own = *q as f64 * self.levels[t * rr + p] as f64;
-                coef[t * rr + p] = if predicted {
-                    own + coef[(t - k) * rr + p]
-                } else {
-                    own
-                };
+                let before = predicted.then(|| coef[(t - k) * rr + p]);
+                coef[t * rr + p] = coefficient(q, self.levels[t * rr + p], before);
             }
         }
         coef
@@ -277,6 +273,14 @@ impl WarpedModel {
         }
         out
     }
+}
+
+/// One coefficient as the file defines it (`spec/FORMAT.md` §3.10): q·n in binary64, plus the
+/// previous incidence's coefficient `before` in a predicted incidence. The encoder rebuilds
+/// with it too, so that what it measures is bit for bit what a decoder gets.
+pub fn coefficient(q: f32, n: i32, before: Option<f64>) -> f64 {
+    let own = q as f64 * n as f64;
+    before.map_or(own, |b| own + b)
 }
 
 /// The orthonormal DCT-II matrix of side n: `basis[a·n + x] = α(a)·cos(π(2x + 1)a / 2n)`.
