@@ -78,7 +78,7 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
     // The table of `docs/guide/warped-tables.md`: default budget 1% at the worst stored incidence, file ≤ 6.5 kB
     // (1/100 of the 644 kB RGB .bsdf) with the program's metadata, and each file within 1.25×
     // of the size the table states for it.
-    let stated = [3.8e3, 1.8e3, 2.4e3];
+    let stated = [3.9e3, 1.7e3, 2.5e3];
     let dir = tempfile::tempdir().unwrap();
     for (name, stated) in MATERIALS.into_iter().zip(stated) {
         let out = format!("{name}.sbrdf");
@@ -136,33 +136,16 @@ fn default_encode_meets_its_budget_and_size_on_every_rgl_material() {
 fn every_budget_is_met_and_bytes_fall_as_it_grows() {
     // The sizes the guide's table states at 0.5%, 1%, 2% and 5% (warped-tables.md; files as the
     // command line writes them, so with its metadata: the material alone is smaller), each held
-    // at SLACK; and the README's "every material within 0.5% under 8 kB", which takes satin at
-    // 0.45% (3.5 kB).
+    // at SLACK; and the README's "every material within 0.5% under 6.5 kB" at `--max-error 0.5%`
+    // (`budgets_are_met`).
     let stated = [
-        [5.4e3, 3.8e3, 2.4e3, 1.3e3],
-        [2.4e3, 1.8e3, 1.3e3, 0.9e3],
-        [3.4e3, 2.4e3, 1.7e3, 1.1e3],
+        [5.6e3, 3.9e3, 2.5e3, 1.3e3],
+        [2.3e3, 1.7e3, 1.3e3, 0.8e3],
+        [3.6e3, 2.5e3, 1.7e3, 1.1e3],
     ];
     for (name, stated) in MATERIALS.into_iter().zip(stated) {
         budgets_are_met(name, stated);
     }
-    let satin = MATERIALS[2];
-    assert!(satin.starts_with("satin"));
-    let enc = encode_warped(
-        &input(satin),
-        &WarpedOptions {
-            noise_floor: false,
-            coding: PayloadCoding::Range,
-            predict: true,
-            max_error: 0.0045,
-            terms: None,
-            transform: None,
-        },
-    )
-    .unwrap();
-    let size = write_material(&enc.material).unwrap().len();
-    assert!(enc.met && size < 8000, "{satin} at 0.45%: {size} bytes");
-    held(&format!("{satin} at 0.45%, bytes"), size as f64, 3.5e3);
 }
 
 /// Each budget met, bytes falling as it grows, and the guide's sizes at 0.5%, 1%, 2% and 5%.
@@ -195,7 +178,7 @@ fn budgets_are_met(name: &str, stated: [f64; 4]) {
                 stated[i],
             );
             if budget == 0.005 {
-                assert!(size < 8000, "{name} at 0.5%: {size} bytes");
+                assert!(size < 6500, "{name} at 0.5%: {size} bytes");
             }
         }
     }

@@ -46,10 +46,10 @@ MAX_POINT, MAX_ENV, MAX_ALBEDO = 0.02, 0.01, 0.03
 # variants: point lights, environment, albedo (relative); each is held at 1.25× (and within the
 # acceptance targets above). The renders trace fixed rays with fixed seeds, so a run repeats them.
 STATED = {
-    "cc_ibiza_sunset": (0.0108, 0.0044, 0.0014),
-    "paper_white": (0.0087, 0.0022, 0.0043),
-    "satin_rosaline": (0.0112, 0.0036, 0.0026),
-    "satin_rosaline_cyan": (0.0109, 0.0033, 0.0028),
+    "cc_ibiza_sunset": (0.0100, 0.0043, 0.0010),
+    "paper_white": (0.0088, 0.0024, 0.0037),
+    "satin_rosaline": (0.0096, 0.0026, 0.0013),
+    "satin_rosaline_cyan": (0.0088, 0.0022, 0.0023),
 }
 # Cosine sampling's variance over the file's (the guide's figures), held at 1/1.25.
 STATED_VARIANCE_RATIO = {"satin_rosaline": 711.0, "cc_ibiza_sunset": 584.0, "paper_white": 12.2}

@@ -15,6 +15,7 @@ pub mod options;
 pub mod samples;
 pub mod settings;
 pub mod subset;
+pub mod table_error;
 pub mod validate;
 pub mod warped;
 

@@ -8,12 +8,14 @@
 //! grid the same peaks span many nodes, the tables are smooth, and the error falls steadily as
 //! bytes grow, so any budget can be met (`docs/guide/warped-tables.md`).
 //!
-//! The error is measured where the file stores the measurement: the relative L2 error of the
-//! spectra over an incidence's R × R nodes and every wavelength, in table units (the
-//! measurement's value before the NDF/(4σ cos θo) factor, which the warp makes roughly uniform
-//! in importance). The worst stored incidence is held to the budget.
+//! The error is measured where the file stores the measurement, over an incidence's R × R
+//! nodes and every wavelength (an RGB source: every colour channel), in table units (the
+//! measurement's value before the NDF/(4σ cos θo) factor): the larger of the relative L2 and
+//! the relative L1 error (`encode::table_error` says why both). The worst stored incidence is
+//! held to the budget.
 
 use crate::encode::basis::sign_fixed;
+use crate::encode::table_error::{Metric, Target};
 use crate::error::{Error, Result};
 use crate::model::basis_storage::{BasisStorage, QUANTISED_EXPONENTS};
 use crate::model::material::{IncidentRecord, Material};
@@ -53,28 +55,11 @@ pub struct WarpedInput {
     pub measured: Option<Vec<f64>>,
 }
 
-/// A linear map of spectra (W values) to D measured values, row-major.
-#[derive(Debug, Clone)]
-pub struct Metric {
-    /// D, the number of measured values.
-    pub rows: usize,
-    /// D rows of W values, row-major: value d = Σ_l `matrix[d·W + l]`·s_l.
-    pub matrix: Vec<f64>,
-}
-
-impl Metric {
-    fn apply(&self, s: &[f64], out: &mut [f64]) {
-        let w = s.len();
-        for (d, o) in out.iter_mut().enumerate().take(self.rows) {
-            *o = (0..w).map(|l| self.matrix[d * w + l] * s[l]).sum();
-        }
-    }
-}
-
 /// What the warped encoder is asked for.
 #[derive(Debug, Clone)]
 pub struct WarpedOptions {
-    /// The budget: relative L2 error of the worst stored incidence (0.01 = 1%).
+    /// The budget: the error of the worst stored incidence, the larger of its relative L2 and
+    /// relative L1 errors (0.01 = 1%; the module's doc).
     pub max_error: f64,
     /// Spectral terms; `None`: the smallest count whose projection leaves ≤ ¼ of the budget.
     pub terms: Option<usize>,
@@ -104,7 +89,7 @@ pub const MAX_AUTO_TERMS: usize = 12;
 pub struct WarpedEncoded {
     /// The encoded material: empty records, the tables in [`Material::warped`].
     pub material: Material,
-    /// Relative L2 error of each stored incidence (table units).
+    /// The error of each stored incidence (table units): the larger of relative L2 and L1.
     pub errors: Vec<f64>,
     /// The error of the spectral projection alone, worst incidence.
     pub projection_error: f64,
@@ -625,59 +610,6 @@ fn project(x: &[f64], basis: &[f64], k: usize, w: usize) -> Vec<f64> {
         }
     }
     out
-}
-
-/// What rebuilt spectra are compared with: the measurement's values `y` (D per node: the
-/// spectra themselves, or their map by the metric).
-struct Target<'a> {
-    y: &'a [f64],
-    d: usize,
-    metric: Option<&'a Metric>,
-    w: usize,
-    r: usize,
-}
-
-impl Target<'_> {
-    /// Relative L2 error of incidence i from its nodes' coefficients `c` (K per node).
-    fn error_of(&self, i: usize, c: &[f64], basis: &[f64], k: usize, norm: f64) -> f64 {
-        let (w, d, per) = (self.w, self.d, self.r * self.r);
-        let mut s = vec![0.0; w];
-        let mut m = vec![0.0; d];
-        let mut e = 0.0;
-        for p in 0..per {
-            // Clamped at 0 as the decoder clamps (EVALUATION.md, "Warped tables", step 5): a
-            // colour that only a negative spectrum gives back is an error here too.
-            for (l, sv) in s.iter_mut().enumerate() {
-                *sv = (0..k)
-                    .map(|t| c[p * k + t] * basis[t * w + l])
-                    .sum::<f64>()
-                    .max(0.0);
-            }
-            let rebuilt: &[f64] = match self.metric {
-                Some(mt) => {
-                    mt.apply(&s, &mut m);
-                    &m
-                }
-                None => &s,
-            };
-            let y = &self.y[(i * per + p) * d..(i * per + p + 1) * d];
-            for (a, b) in rebuilt.iter().zip(y) {
-                e += (a - b) * (a - b);
-            }
-        }
-        e.sqrt() / norm
-    }
-
-    /// Relative L2 error per incidence of the spectra rebuilt from coefficients `c` (K per
-    /// node, every incidence) on `basis`, against `y`, normalised by `norms`.
-    fn errors(&self, c: &[f64], basis: &[f64], k: usize, norms: &[f64]) -> Vec<f64> {
-        let per = self.r * self.r * k;
-        norms
-            .iter()
-            .enumerate()
-            .map(|(i, &norm)| self.error_of(i, &c[i * per..(i + 1) * per], basis, k, norm))
-            .collect()
-    }
 }
 
 /// The span of `basis` (K = D rows) turned so that its coefficients are orthonormal

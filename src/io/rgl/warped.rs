@@ -5,7 +5,8 @@
 use super::{rgb_refusal, Channels, RglBsdf, Upsampler, UPSAMPLED_WAVELENGTHS};
 use crate::decode::color::CIE_WAVELENGTHS;
 use crate::encode::samples::{ReadOptions, RgbToSpectrum};
-use crate::encode::warped::{Metric, WarpedInput};
+use crate::encode::table_error::Metric;
+use crate::encode::warped::WarpedInput;
 use crate::error::{Error, Result};
 use rayon::prelude::*;
 
