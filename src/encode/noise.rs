@@ -8,7 +8,8 @@
 //! median ignores the few large coefficients that sharp features leave there; Donoho &
 //! Johnstone's estimator). With σ per channel, an incidence of R × R nodes holds noise of
 //! energy R²·Σ σ², and its noise floor is that energy's root over the incidence's own
-//! (the relative L2 error the encoder measures, `encode::warped`).
+//! (the L2 half of the error the encoder measures, `encode::table_error`; noise in proportion
+//! to the values has a relative L1 error √(2/π) ≈ 0.8 times its relative L2).
 //!
 //! What it reads, measured on the shipped RGL files (`tests/noise_floor.rs`): ≤ 0.11% on the
 //! clean measurements; with Gaussian noise of 0.5–2% added (in proportion to each value, or

@@ -32,7 +32,8 @@ impl Metric {
 }
 
 /// What rebuilt spectra are compared with: the measurement's values `y` (D per node: the
-/// spectra themselves, or their map by the metric).
+/// spectra themselves, or their map by the metric), and each incidence's L2 and L1 norms, the
+/// denominators of its relative errors.
 pub struct Target<'a> {
     /// The measured values, D per node, node-major, incidence-major.
     pub y: &'a [f64],
@@ -44,17 +45,44 @@ pub struct Target<'a> {
     pub w: usize,
     /// Table side R.
     pub r: usize,
+    /// Each incidence's L2 norm √Σ y² (at least the smallest positive `f64`).
+    pub norms: Vec<f64>,
+    /// Each incidence's L1 norm Σ |y| (likewise).
+    pub magnitudes: Vec<f64>,
 }
 
-impl Target<'_> {
+impl<'a> Target<'a> {
+    /// The target of `y` (D values per node, incidences of R × R nodes), its norms computed
+    /// once here.
+    pub fn new(y: &'a [f64], d: usize, metric: Option<&'a Metric>, w: usize, r: usize) -> Self {
+        let per = (r * r * d).max(1);
+        let (norms, magnitudes) = y
+            .chunks(per)
+            .map(|v| {
+                let l2 = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                let l1 = v.iter().map(|x| x.abs()).sum::<f64>();
+                (l2.max(f64::MIN_POSITIVE), l1.max(f64::MIN_POSITIVE))
+            })
+            .unzip();
+        Target {
+            y,
+            d,
+            metric,
+            w,
+            r,
+            norms,
+            magnitudes,
+        }
+    }
+
     /// The error of incidence i from its nodes' coefficients `c` (K per node): the larger of
-    /// its relative L2 error (against `norm`, the incidence's L2 norm) and its relative L1
-    /// error, the two measures the module's doc gives reasons for.
-    pub fn error_of(&self, i: usize, c: &[f64], basis: &[f64], k: usize, norm: f64) -> f64 {
+    /// its relative L2 and relative L1 errors, the two measures the module's doc gives reasons
+    /// for.
+    pub fn error_of(&self, i: usize, c: &[f64], basis: &[f64], k: usize) -> f64 {
         let (w, d, per) = (self.w, self.d, self.r * self.r);
         let mut s = vec![0.0; w];
         let mut m = vec![0.0; d];
-        let (mut squares, mut absolutes, mut magnitude) = (0.0, 0.0, 0.0);
+        let (mut squares, mut absolutes) = (0.0, 0.0);
         for p in 0..per {
             // Clamped at 0 as the decoder clamps (EVALUATION.md, "Warped tables", step 5): a
             // colour that only a negative spectrum gives back is an error here too.
@@ -75,22 +103,17 @@ impl Target<'_> {
             for (a, b) in rebuilt.iter().zip(y) {
                 squares += (a - b) * (a - b);
                 absolutes += (a - b).abs();
-                magnitude += b.abs();
             }
         }
-        let l2 = squares.sqrt() / norm;
-        let l1 = absolutes / magnitude.max(f64::MIN_POSITIVE);
-        l2.max(l1)
+        (squares.sqrt() / self.norms[i]).max(absolutes / self.magnitudes[i])
     }
 
-    /// The error ([`Self::error_of`]) per incidence of the spectra rebuilt from coefficients `c` (K per
-    /// node, every incidence) on `basis`, against `y`, normalised by `norms`.
-    pub fn errors(&self, c: &[f64], basis: &[f64], k: usize, norms: &[f64]) -> Vec<f64> {
+    /// The error ([`Self::error_of`]) of every incidence of the spectra rebuilt from
+    /// coefficients `c` (K per node, every incidence) on `basis`.
+    pub fn errors(&self, c: &[f64], basis: &[f64], k: usize) -> Vec<f64> {
         let per = self.r * self.r * k;
-        norms
-            .iter()
-            .enumerate()
-            .map(|(i, &norm)| self.error_of(i, &c[i * per..(i + 1) * per], basis, k, norm))
+        (0..self.norms.len())
+            .map(|i| self.error_of(i, &c[i * per..(i + 1) * per], basis, k))
             .collect()
     }
 }

@@ -142,25 +142,8 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
             (y, m.rows)
         }
     };
-    let target = Target {
-        y: &y,
-        d: dy,
-        metric: input.metric.as_ref(),
-        w,
-        r,
-    };
-    // Energy of each incidence, for relative errors.
-    let norms: Vec<f64> = (0..n)
-        .map(|i| {
-            y[i * r * r * dy..(i + 1) * r * r * dy]
-                .iter()
-                .map(|v| v * v)
-                .sum::<f64>()
-                .sqrt()
-                .max(f64::MIN_POSITIVE)
-        })
-        .collect();
-    let noise = crate::encode::noise::noise_floor(&y, n, r, dy, &norms);
+    let target = Target::new(&y, dy, input.metric.as_ref(), w, r);
+    let noise = crate::encode::noise::noise_floor(&y, n, r, dy, &target.norms);
     let budgets: Vec<f64> = noise
         .iter()
         .map(|&e| {
@@ -191,13 +174,12 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
         basis = basis_all[..k * w].to_vec();
         coef = match &input.metric {
             Some(m) if k == m.rows => {
-                (basis, coef) =
-                    reachable_span(&target, m, &basis, &input.wavelengths, &norms, opts, grid)?;
+                (basis, coef) = reachable_span(&target, m, &basis, &input.wavelengths, opts, grid)?;
                 coef
             }
             _ => project(x, &basis, k, w),
         };
-        let errs = target.errors(&coef, &basis, k, &norms);
+        let errs = target.errors(&coef, &basis, k);
         projection_error = errs.iter().cloned().fold(0.0, f64::max);
         if forced.is_some()
             || opts.terms.is_some()
@@ -234,7 +216,6 @@ pub fn encode_warped(input: &WarpedInput, opts: &WarpedOptions) -> Result<Warped
             basis: &basis,
             k,
             n,
-            norms: &norms,
         };
         tables.code(&budgets, predict.then_some(&shell))
     };
@@ -343,7 +324,6 @@ struct Tables<'a> {
     basis: &'a [f64],
     k: usize,
     n: usize,
-    norms: &'a [f64],
 }
 
 /// One incidence's K tables quantised at one step.
@@ -474,7 +454,7 @@ impl Tables<'_> {
                     c[p * k + t] = table[p];
                 }
             }
-            let error = self.target.error_of(i, &c, self.basis, k, self.norms[i]);
+            let error = self.target.error_of(i, &c, self.basis, k);
             Quantised {
                 step,
                 levels,
@@ -681,7 +661,6 @@ fn reachable_span(
     m: &Metric,
     principal: &[f64],
     wavelengths: &[f32],
-    norms: &[f64],
     opts: &WarpedOptions,
     grid: BasisGrid,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
@@ -701,7 +680,7 @@ fn reachable_span(
         let basis = metric_orthonormal(target.y, m, span, k, w, grid)?;
         let coef = project_in_metric(target.y, m, &basis, k, w)?;
         let worst = target
-            .errors(&coef, &basis, k, norms)
+            .errors(&coef, &basis, k)
             .into_iter()
             .fold(0.0, f64::max);
         Ok((worst, basis, coef))
