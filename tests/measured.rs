@@ -59,7 +59,24 @@ struct Stated {
 }
 
 fn cornell(name: &str, stated: Stated) {
-    let r = run(&format!("cornell/{name}.astm"), &[30.0, 50.0, 70.0], false);
+    // Every incidence left out in turn (issue 41): none may be predicted with more light than
+    // it holds, rel ≤ 1.0 (what a prediction of zero scores).
+    let r = run(&format!("cornell/{name}.astm"), &[], false);
+    for i in &r.incidences {
+        let s = i.left_out.expect("every incidence left out");
+        eprintln!(
+            "{name}: {}° left out: log {:.3} rel {:.3}",
+            i.theta_i,
+            s.log(),
+            s.rel()
+        );
+        assert!(
+            s.rel() <= 1.0,
+            "{name}: {}° left out predicts rel {:.3} > 1.0: light the measurement does not hold",
+            i.theta_i,
+            s.rel()
+        );
+    }
     let f = r.folds.unwrap();
     eprintln!(
         "{name}: 5-fold log {:.3} rel {:.3}; {} bytes",
@@ -84,7 +101,6 @@ fn cornell(name: &str, stated: Stated) {
     held_rel(&format!("{name} 5-fold rel"), f.rel(), stated.folds.1);
     for (t, (log_stated, rel_stated)) in [30.0, 50.0, 70.0].into_iter().zip(stated.left_out) {
         let (log, rel) = left_out(&r, t);
-        eprintln!("{name}: {t}° left out: log {log:.3} rel {rel:.3}");
         held(&format!("{name} {t}° left out log"), log, log_stated);
         held_rel(&format!("{name} {t}° left out rel"), rel, rel_stated);
     }
@@ -98,7 +114,7 @@ fn cornell_acrylic_generalises() {
         Stated {
             folds: (0.393, 0.761),
             left_out: [(0.270, 0.391), (0.277, 0.241), (0.704, 0.164)],
-            bytes: 1.7e3,
+            bytes: 1.8e3,
         },
     );
 }
@@ -110,7 +126,7 @@ fn cornell_paint_generalises() {
         Stated {
             folds: (0.291, 0.298),
             left_out: [(0.085, 0.057), (0.120, 0.178), (0.679, 0.683)],
-            bytes: 1.7e3,
+            bytes: 1.8e3,
         },
     );
 }
@@ -137,7 +153,7 @@ fn nist_ptfe_generalises_and_stays_positive() {
     held_rel("PTFE 5-fold rel", f.rel(), 0.0127);
     held("PTFE 45° left out log", log45, 0.014);
     held_rel("PTFE 45° left out rel", rel45, 0.0148);
-    held("PTFE bytes", r.bytes as f64, 1.2e3);
+    held("PTFE bytes", r.bytes as f64, 1.28e3);
     let d = r.dense.unwrap();
     assert!(d.values > 100_000);
     assert_eq!(
@@ -145,4 +161,62 @@ fn nist_ptfe_generalises_and_stays_positive() {
         "values below 0 before the clamp, lowest {}",
         d.minimum
     );
+    // Issue 41: the material plainly reflects wherever θi and θo are below 85°; no 0 there.
+    assert_eq!(d.zero_below_85, 0, "values at 0 where θi, θo < 85°");
+}
+
+/// Beyond the measured incidences (issue 41, item 3) the factor model holds each angle at the
+/// nearest end of its stored range, so the last measured shape follows the mirror direction at
+/// that end's level: the light it sends out stays physically bounded. The directional albedo
+/// ∫ρ cos θo dωo (midpoint rule, θo every 0.2°, φo every 1°) of the golden Cornell factor
+/// file stays at most 1 at every incidence to grazing, and at the measured end (80°) and
+/// beyond it never grows past what the measured incidences send out.
+#[test]
+fn factor_model_albedo_is_bounded_beyond_the_measurement() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("samples/golden/krylon_shared_v11.sbrdf");
+    let dec = sbrdf::Decoder::open(&p).unwrap();
+    let wl: Vec<f32> = dec.material().wavelengths.clone();
+    let (nt, np) = (450, 360);
+    let (dt, dp) = (
+        std::f64::consts::FRAC_PI_2 / nt as f64,
+        std::f64::consts::TAU / np as f64,
+    );
+    let mut out = vec![0.0f32; wl.len()];
+    let albedo = |ti: f64, out: &mut Vec<f32>| -> f64 {
+        let a = ti.to_radians();
+        let wi = [a.sin() as f32, 0.0, a.cos() as f32];
+        let mut sum = vec![0.0f64; wl.len()];
+        for i in 0..nt {
+            let t = (i as f64 + 0.5) * dt;
+            let w = t.cos() * t.sin() * dt * dp;
+            for j in 0..np {
+                let p = (j as f64 + 0.5) * dp;
+                let wo = [
+                    (t.sin() * p.cos()) as f32,
+                    (t.sin() * p.sin()) as f32,
+                    t.cos() as f32,
+                ];
+                dec.eval(wi, wo, &wl, out);
+                for (s, v) in sum.iter_mut().zip(out.iter()) {
+                    *s += w * *v as f64;
+                }
+            }
+        }
+        sum.into_iter().fold(0.0, f64::max)
+    };
+    let measured: Vec<f64> = [10.0, 30.0, 50.0, 70.0, 80.0]
+        .iter()
+        .map(|&t| albedo(t, &mut out))
+        .collect();
+    let most = measured.iter().cloned().fold(0.0, f64::max);
+    eprintln!("krylon albedo (max over λ) at 10/30/50/70/80°: {measured:.4?}");
+    for ti in [85.0, 88.0, 89.9] {
+        let a = albedo(ti, &mut out);
+        eprintln!("krylon albedo at {ti}°: {a:.4}");
+        assert!(a <= 1.0, "albedo {a} > 1 at θi = {ti}°");
+        assert!(
+            a <= most,
+            "albedo {a} at θi = {ti}° beyond the measured incidences, above their largest {most}"
+        );
+    }
 }

@@ -150,6 +150,12 @@ pub fn cmd_info(a: InfoArgs) -> Result<()> {
             f.precision.name(),
             comps.join("; ")
         );
+        let r = &f.ranges;
+        println!(
+            "measured:       θi {:.1}–{:.1}°, θo {:.1}–{:.1}°, θh {:.1}–{:.1}°, θd {:.1}–{:.1}°, x {:.2}–{:.2}; beyond, each \
+             angle is held at its nearest end (the peak follows the mirror direction)",
+            r[2][0], r[2][1], r[3][0], r[3][1], r[0][0], r[0][1], r[1][0], r[1][1], r[4][0], r[4][1]
+        );
     }
     if let Some(w) = &m.warped {
         let steps = w

@@ -92,7 +92,7 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
             "nearest_left_out": json(r.nearest_left_out.as_ref()),
             "dense_grid": r.dense.map(|d| serde_json::json!({
                 "values": d.values, "negative": d.negative, "minimum": d.minimum,
-                "not_finite": d.not_finite,
+                "not_finite": d.not_finite, "zero_below_85": d.zero_below_85,
             })),
         });
         println!("{}", serde_json::to_string_pretty(&v).expect("JSON"));
@@ -162,11 +162,13 @@ pub fn cmd_validate(a: ValidateArgs) -> Result<()> {
     );
     if let Some(d) = r.dense {
         println!(
-            "dense grid: {} values, {} below 0 before the clamp ({:.3}%), lowest {:.4e}{}",
+            "dense grid: {} values, {} below 0 before the clamp ({:.3}%), lowest {:.4e}; {} at or \
+             below 0 where θi and θo are below 85°{}",
             d.values,
             d.negative,
             100.0 * d.negative as f64 / d.values.max(1) as f64,
             d.minimum,
+            d.zero_below_85,
             if d.not_finite > 0 {
                 format!(", {} not finite", d.not_finite)
             } else {

@@ -59,6 +59,11 @@ pub fn to_json(m: &Material, file: &str, bytes: u64) -> serde_json::Value {
             })).collect::<Vec<_>>(),
             "parameters": f.parameter_count(),
             "precision": f.precision.name(),
+            // Where the measurement ends: each feature's range, [min, max].
+            "ranges": {
+                "theta_h": f.ranges[0], "theta_d": f.ranges[1], "theta_i": f.ranges[2],
+                "theta_o": f.ranges[3], "x": f.ranges[4],
+            },
         })),
         "warped": m.warped.as_ref().map(|w| serde_json::json!({
             "transform": match w.transform {

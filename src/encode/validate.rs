@@ -62,6 +62,9 @@ pub struct DenseGrid {
     pub minimum: f64,
     /// Values that are not finite (never expected).
     pub not_finite: usize,
+    /// Values at or below 0 before the clamp (0 as decoded) where θi and θo are both below 85°:
+    /// directions where a measured material plainly reflects (issue 41).
+    pub zero_below_85: usize,
 }
 
 fn dense_grid(dec: &Decoder, wavelengths: &[f64]) -> DenseGrid {
@@ -84,8 +87,10 @@ fn dense_grid(dec: &Decoder, wavelengths: &[f64]) -> DenseGrid {
                 for b in 0..72 {
                     let o = (1.25 + 2.5 * a as f64, 5.0 * b as f64);
                     dec.eval_deg_unclamped((ti, pi), o, wavelengths, &mut out);
+                    let inside = ti < 85.0 && o.0 < 85.0;
                     for &v in &out {
                         g.values += 1;
+                        g.zero_below_85 += (inside && v <= 0.0) as usize;
                         if !v.is_finite() {
                             g.not_finite += 1;
                         } else {
@@ -107,6 +112,7 @@ fn dense_grid(dec: &Decoder, wavelengths: &[f64]) -> DenseGrid {
                 negative: a.negative + b.negative,
                 minimum: a.minimum.min(b.minimum),
                 not_finite: a.not_finite + b.not_finite,
+                zero_below_85: a.zero_below_85 + b.zero_below_85,
             },
         )
 }
