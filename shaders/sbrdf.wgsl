@@ -68,7 +68,7 @@
 // other covered golden file meets.
 
 // BEGIN GENERATED LAYOUT WORDS
-// Generated from src/decode/gpu_words.rs, the one definition of spec/GPU_LAYOUT.md's word
+// Generated from src/decode/gpu_layout/words.rs, the one definition of spec/GPU_LAYOUT.md's word
 // offsets; do not edit (the test gpu::tests::layout_words_match_the_rust_table says how to
 // regenerate). Offsets are in words, relative to what each table's comment says.
 // Header (20 words), relative to base
@@ -2260,7 +2260,7 @@ fn sbrdf_eval4(base: u32, wi: vec3<f32>, wo: vec3<f32>, lambda_nm: vec4<f32>) ->
 // The colour weights W_i, i = 4g .. 4g + 3 the columns of sbrdf_rgb_weights4(g):
 // W_i = M E(l_i) (xbar, ybar, zbar)(l_i) / sum_j E(l_j) ybar(l_j), at l_i = 380 + 5 i nm, with E the
 // CIE D65 illuminant and M the IEC 61966-2-1 XYZ -> linear sRGB matrix: computed in f64 from
-// src/decode/cie.rs and rounded to f32 (the Rust test `gpu::tests::rgb_weights_match_cie_tables`
+// src/decode/color/cie.rs and rounded to f32 (the Rust test `gpu::tests::rgb_weights_match_cie_tables`
 // recomputes them and requires equality; tools/gen_wgsl_rgb_weights.py writes them). 81
 // wavelengths: the last group's columns 1 to 3 are 0. A `switch` of constants rather than a
 // `const` array: indexed at run time, an array would be copied into private memory.
@@ -2462,7 +2462,7 @@ fn sbrdf_eval_rgb(base: u32, wi: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
 // horizon). The components are not stored: sbrdf_smp_walk goes through them in the CPU's order
 // and computes what each pass needs (energies, densities, the chosen one).
 
-const SBRDF_MIN_COSINE_WEIGHT: f32 = 0.1; // draw.rs MIN_COSINE_WEIGHT
+const SBRDF_MIN_COSINE_WEIGHT: f32 = 0.1; // sampling/sample.rs MIN_COSINE_WEIGHT
 const SBRDF_ONE_BELOW: f32 = 0.99999994; // the largest f32 below 1: u is clamped to [0, this]
 const SBRDF_SHARED: u32 = 0xffffffffu; // a component's record index when the lobe is shared
 

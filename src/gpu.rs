@@ -43,12 +43,12 @@ pub const WGSL: &str = include_str!("../shaders/sbrdf.wgsl");
 
 // Packing lives with the layout in the decoder (the C API packs too, and the decoder does not
 // depend on this module); renderers find it here beside the shader it feeds.
-pub use crate::decode::gpu_pack::{pack, pack_layouts, Packed};
+pub use crate::decode::gpu_layout::pack::{pack, pack_layouts, Packed};
 
 #[cfg(test)]
 mod tests {
     use super::{pack, pack_layouts, WGSL};
-    use crate::decode::cie;
+    use crate::decode::color::cie;
     use crate::Decoder;
 
     fn golden(name: &str) -> Decoder {
@@ -181,12 +181,12 @@ mod tests {
         );
     }
 
-    /// The shader's layout constants are the Rust table's (`src/decode/gpu_words.rs`, the one
+    /// The shader's layout constants are the Rust table's (`src/decode/gpu_layout/words.rs`, the one
     /// definition of the layout's word offsets). With `SBRDF_REGENERATE=1` in the environment
     /// the test writes the table's block into `shaders/sbrdf.wgsl` instead of failing.
     #[test]
     fn layout_words_match_the_rust_table() {
-        let want = crate::decode::gpu_words::wgsl_block();
+        let want = crate::decode::gpu_layout::words::wgsl_block();
         if generated("LAYOUT WORDS") == want {
             return;
         }
@@ -206,7 +206,7 @@ mod tests {
         }
         panic!(
             "shaders/sbrdf.wgsl's layout constants (between // BEGIN GENERATED LAYOUT WORDS and \
-             // END GENERATED LAYOUT WORDS) differ from src/decode/gpu_words.rs; regenerate them \
+             // END GENERATED LAYOUT WORDS) differ from src/decode/gpu_layout/words.rs; regenerate them \
              with `SBRDF_REGENERATE=1 cargo test --lib gpu::tests::layout_words_match_the_rust_table`\n\
              --- the shader's block:\n{}\n--- the table's:\n{want}",
             generated("LAYOUT WORDS")

@@ -257,8 +257,8 @@ fn the_resident_form_gives_back_the_material_and_the_bytes() {
     }
 }
 
-/// `eval` takes shortcuts — a θ line's records read by position without the general machinery
-/// (`src/decode/theta_line.rs`; one wavelength with terms before records), many wavelengths of a
+/// `eval` takes shortcuts — one wavelength on a θ line through the kernel (`src/decode/kernel/`),
+/// elsewhere with terms before records (`src/decode/records/general.rs`), many wavelengths of a
 /// tabulated basis from node sums (`SpectrumEvaluator::eval_clamped`), θ from a polynomial —
 /// that must give the general path's values to rounding: each is checked against `eval_deg`
 /// (double precision angles, the general path) at the same directions, within a few f32

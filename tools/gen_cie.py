@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Writes src/decode/cie.rs from samples/cie1931_2deg_d65_380_780_5nm.csv (CIE 1931 2° colour-matching
+"""Writes src/decode/color/cie.rs from samples/cie1931_2deg_d65_380_780_5nm.csv (CIE 1931 2° colour-matching
 functions and illuminant D65, 380–780 nm every 5 nm, as packaged by colour-science).
 
 The decoder-only build has no CSV reader, so the table is compiled in as constants.
-Usage (from the repository root): python3 tools/gen_cie.py > src/decode/cie.rs
+Usage (from the repository root): python3 tools/gen_cie.py > src/decode/color/cie.rs
 """
 import csv
 

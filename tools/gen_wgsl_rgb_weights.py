@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes the colour weights into shaders/sbrdf.wgsl (between its BEGIN/END GENERATED RGB WEIGHTS
-markers) from the tables of src/decode/cie.rs: per CIE wavelength, M E (xbar, ybar, zbar) / sum E
-ybar in f64, in the order of operations of src/decode/color.rs, rounded to f32 and printed with 9
+markers) from the tables of src/decode/color/cie.rs: per CIE wavelength, M E (xbar, ybar, zbar) / sum E
+ybar in f64, in the order of operations of src/decode/color/mod.rs, rounded to f32 and printed with 9
 significant digits (enough to give the same f32 back). They are the columns of
 sbrdf_rgb_weights4(g), four wavelengths a group, a `switch` of constants (a `const` array indexed
 at run time would be copied into each invocation's private memory by a SPIR-V writer). The Rust test
@@ -25,7 +25,7 @@ def f32(x):
 
 
 def main():
-    src = (ROOT / "src/decode/cie.rs").read_text()
+    src = (ROOT / "src/decode/color/cie.rs").read_text()
     xb, yb, zb, e = (table(src, n) for n in ("X_BAR", "Y_BAR", "Z_BAR", "D65"))
     norm = 0.0
     for i in range(len(e)):

@@ -6,7 +6,7 @@ use sbrdf::io::output::write_bytes_atomic;
 use sbrdf::report::draw::{render, ImageKind};
 use sbrdf::report::paper_figures::{paper_figures, PaperFiguresOptions};
 use sbrdf::report::plot::{coefficient_plot, PlotOptions};
-use sbrdf::report::preview::{render_preview, PreviewOptions};
+use sbrdf::report::preview::{preview_png, render_preview, PreviewOptions};
 use sbrdf::{Decoder, Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -183,7 +183,7 @@ pub fn cmd_preview(a: PreviewArgs) -> Result<()> {
             light,
         },
     )?;
-    write_bytes_atomic(&a.output, &p.png()?)?;
+    write_bytes_atomic(&a.output, &preview_png(&p)?)?;
     eprintln!(
         "sbrdf: wrote {}: {}×{} pixels, exposure {:.3}",
         a.output.display(),

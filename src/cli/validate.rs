@@ -3,7 +3,8 @@
 
 use super::encode::EncodeOptionArgs;
 use clap::Args;
-use sbrdf::encode::validate::{validate, ErrorSums, ValidateOptions};
+use sbrdf::encode::metrics::ErrorSums;
+use sbrdf::encode::validate::{validate, ValidateOptions};
 use sbrdf::{Error, Result};
 use std::path::PathBuf;
 

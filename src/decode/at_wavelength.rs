@@ -1,8 +1,8 @@
 //! The decoder at one wavelength ([`crate::Decoder::at`]): a hero-wavelength renderer's many
 //! queries at one λ, with the spectral basis values at λ computed once.
 
-use super::evaluator::{Evaluator, SMALL_TERMS};
-use super::kernel::Collapsed;
+use super::batch;
+use super::evaluator::{AtRoute, Evaluator};
 use crate::error::Result;
 
 /// [`crate::Decoder`] at one wavelength, made by [`crate::Decoder::at`]. Its values are `Decoder::eval`'s at
@@ -11,35 +11,18 @@ use crate::error::Result;
 pub struct AtWavelength<'a> {
     evaluator: &'a Evaluator,
     wavelength: f32,
-    /// B_0..B_{K−1} at the wavelength (NaN first when it is not finite), when the file's
-    /// queries can use them ([`Evaluator::hoists_basis`]); otherwise each query goes through
+    /// How its queries are answered, chosen here once (`Evaluator::at_route`): from every
+    /// record collapsed at the wavelength, from the wavelength's basis values, or through
     /// `eval`.
-    basis: Option<[f64; SMALL_TERMS]>,
-    /// On the θ-line path, every record with its spectral terms applied at the wavelength
-    /// (when the file's records fit: 17 at SH level 6, more at lower levels): a query then
-    /// only evaluates its directions. Computed here, at about the cost of two queries per
-    /// record.
-    collapsed: Option<Collapsed>,
+    route: AtRoute,
 }
 
 impl<'a> AtWavelength<'a> {
     pub(crate) fn new(evaluator: &'a Evaluator, wavelength: f32) -> Self {
-        let basis = evaluator.hoists_basis().then(|| {
-            let mut b = [0.0f64; SMALL_TERMS];
-            evaluator.basis_at(wavelength, &mut b);
-            b
-        });
-        let collapsed = match (&basis, evaluator.kernel_input()) {
-            (Some(b), Some((kernel, st))) if !b[0].is_nan() => {
-                kernel.collapse_all(st.res, &b[..st.res.spectrum.terms()])
-            }
-            _ => None,
-        };
         AtWavelength {
             evaluator,
             wavelength,
-            basis,
-            collapsed,
+            route: evaluator.at_route(wavelength),
         }
     }
 
@@ -65,25 +48,7 @@ impl<'a> AtWavelength<'a> {
     /// ```
     #[inline]
     pub fn eval(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
-        if let (Some(c), Some((kernel, st)), Some(b)) =
-            (&self.collapsed, self.evaluator.kernel_input(), &self.basis)
-        {
-            return kernel.one_collapsed(st, wi, wo, c).unwrap_or_else(|| {
-                let k = st.res.spectrum.terms();
-                self.evaluator.line_fallback(wi, wo, &b[..k])
-            });
-        }
-        match &self.basis {
-            Some(b) => {
-                let k = self.evaluator.res.spectrum.terms();
-                self.evaluator.eval_one(wi, wo, &b[..k])
-            }
-            None => {
-                let mut out = [0.0f32];
-                self.evaluator.eval(wi, wo, &[self.wavelength], &mut out);
-                out[0]
-            }
-        }
+        self.evaluator.eval_at(&self.route, self.wavelength, wi, wo)
     }
 
     /// ρ for many pairs at this wavelength: [`crate::Decoder::eval_batch`] with one wavelength
@@ -100,6 +65,15 @@ impl<'a> AtWavelength<'a> {
     /// # Ok::<(), sbrdf::Error>(())
     /// ```
     pub fn eval_batch(&self, wi: &[[f32; 3]], wo: &[[f32; 3]], out: &mut [f32]) -> Result<()> {
-        super::batch::checked(self.evaluator, wi, wo, &[self.wavelength], out)
+        let wavelengths = [self.wavelength];
+        let s = batch::check(wi, wo, &wavelengths, out)?;
+        self.evaluator.eval_batch(
+            |i| wi[i * s.wi_step],
+            |i| wo[i * s.wo_step],
+            s.n,
+            &wavelengths,
+            out,
+        );
+        Ok(())
     }
 }

@@ -307,7 +307,7 @@ pub unsafe extern "C" fn sbrdf_gpu_pack(
             return SBRDF_ERR_NULL;
         }
         let decoders: Vec<&Decoder> = handles.iter().map(|&h| &(*h).0).collect();
-        let packed = match super::gpu_pack::pack(&decoders) {
+        let packed = match super::gpu_layout::pack::pack(&decoders) {
             Ok(p) => p,
             Err(e) => return code_of(&e),
         };

@@ -2,6 +2,7 @@
 //! outgoing directions in proportion to it.
 
 use super::at_wavelength::AtWavelength;
+use super::color::{spectrum_to_xyz, xyz_to_linear_srgb, Illuminant, CIE_WAVELENGTHS};
 use super::evaluator::Evaluator;
 use super::sampling::{self, Sample, SamplingWeights};
 use super::warped::Residency;
@@ -209,22 +210,22 @@ impl Decoder {
         let res = &self.evaluator.res;
         // Warped tables (spec/GPU_LAYOUT.md, "Warped tables section"): the compact form this
         // decoder evaluates, which answers every query and samples itself (no sampling section).
-        if let (Some(w), Some(held)) = (&self.evaluator.warped, &res.warped) {
+        if let (Some(w), Some(held)) = (self.evaluator.warped(), &res.warped) {
             let section = w.section_words(held.steps())?;
-            super::gpu_warped::append_warped_section(&mut words, &section)?;
+            super::gpu_layout::warped::append_warped_section(&mut words, &section)?;
             return Ok(words);
         }
         // The records' mixture weights (spec/GPU_LAYOUT.md, "Sampling section"): what
         // `Decoder::sample` draws from, a factor model included (it samples the records' mixture,
         // whose cosine covers F).
-        super::gpu_sampling::append_sampling_section(
+        super::gpu_layout::sampling::append_sampling_section(
             &mut words,
             self.sampling_weights(),
             res.recs.len(),
         )?;
         // The factor model (spec/GPU_LAYOUT.md, "Model section").
         if let Some(model) = &res.factor {
-            super::gpu_factor::append_factor_section(&mut words, model)?;
+            super::gpu_layout::factor::append_factor_section(&mut words, model)?;
         }
         Ok(words)
     }
@@ -312,7 +313,7 @@ impl Decoder {
         out: &mut [f64],
     ) {
         self.evaluator
-            .eval_deg(incident, outgoing, wavelengths, out)
+            .eval_deg_with(incident, outgoing, wavelengths, out, true)
     }
 
     /// The decoder at one wavelength λ (nm), for a renderer that asks many queries at one
@@ -380,7 +381,15 @@ impl Decoder {
         wavelengths: &[f32],
         out: &mut [f32],
     ) -> Result<()> {
-        super::batch::checked(&self.evaluator, wi, wo, wavelengths, out)
+        let s = super::batch::check(wi, wo, wavelengths, out)?;
+        self.evaluator.eval_batch(
+            |i| wi[i * s.wi_step],
+            |i| wo[i * s.wo_step],
+            s.n,
+            wavelengths,
+            out,
+        );
+        Ok(())
     }
 
     /// [`Decoder::eval_batch`] over vectors read through accessors (the C ABI's strided
@@ -393,7 +402,7 @@ impl Decoder {
         wavelengths: &[f32],
         out: &mut [f32],
     ) {
-        super::batch::eval_batch(&self.evaluator, wi, wo, n, wavelengths, out)
+        self.evaluator.eval_batch(wi, wo, n, wavelengths, out)
     }
 
     /// Computes the importance-sampling weights now rather than on the first call of
@@ -415,7 +424,7 @@ impl Decoder {
 
     fn sampling_weights(&self) -> &SamplingWeights {
         self.sampling
-            .get_or_init(|| SamplingWeights::new(&self.evaluator))
+            .get_or_init(|| SamplingWeights::new(self.evaluator.records()))
     }
 
     /// Draws an outgoing direction (toward the viewer) for the incident direction `wi` (toward
@@ -449,10 +458,10 @@ impl Decoder {
     /// # Ok::<(), sbrdf::Error>(())
     /// ```
     pub fn sample(&self, wi: [f32; 3], u: [f32; 2]) -> Option<Sample> {
-        if let Some(w) = &self.evaluator.warped {
+        if let Some(w) = self.evaluator.warped() {
             return super::warped::sample_warped(w, wi, u);
         }
-        sampling::sample(&self.evaluator, self.sampling_weights(), wi, u)
+        sampling::sample(self.evaluator.records(), self.sampling_weights(), wi, u)
     }
 
     /// The density (1/sr, over solid angle) with which [`Decoder::sample`] draws `wo` for `wi`:
@@ -468,10 +477,32 @@ impl Decoder {
     /// # Ok::<(), sbrdf::Error>(())
     /// ```
     pub fn pdf(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
-        if let Some(w) = &self.evaluator.warped {
+        if let Some(w) = self.evaluator.warped() {
             return super::warped::pdf_warped(w, wi, wo);
         }
-        sampling::pdf(&self.evaluator, self.sampling_weights(), wi, wo)
+        sampling::pdf(self.evaluator.records(), self.sampling_weights(), wi, wo)
+    }
+
+    /// ρ(wi, wo) as CIE XYZ under `illuminant`: the spectrum evaluated at 380–780 nm every 5 nm
+    /// (held at the file's end values outside its wavelength range, as [`Decoder::eval`] does)
+    /// and integrated against the 1931 2° observer. No allocation.
+    pub fn eval_xyz(&self, wi: [f32; 3], wo: [f32; 3], illuminant: Illuminant) -> [f64; 3] {
+        let mut s = [0.0f32; CIE_WAVELENGTHS.len()];
+        self.eval(wi, wo, &CIE_WAVELENGTHS, &mut s);
+        spectrum_to_xyz(&s, illuminant)
+    }
+
+    /// ρ(wi, wo) as linear sRGB under `illuminant` (D65 is sRGB's own white).
+    ///
+    /// ```
+    /// use sbrdf::decode::color::Illuminant;
+    /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
+    /// let rgb = decoder.eval_linear_srgb([0.5, 0.0, 0.866], [-0.5, 0.0, 0.866], Illuminant::D65);
+    /// assert!(rgb.iter().all(|c| c.is_finite()));
+    /// # Ok::<(), sbrdf::Error>(())
+    /// ```
+    pub fn eval_linear_srgb(&self, wi: [f32; 3], wo: [f32; 3], illuminant: Illuminant) -> [f64; 3] {
+        xyz_to_linear_srgb(self.eval_xyz(wi, wo, illuminant))
     }
 }
 

@@ -1,36 +1,30 @@
 //! What a renderer compiles: the decoder (open a file once, answer ρ(ωi, ωo, λ) without
-//! allocating), blending between stored incidences, importance sampling, spectrum to colour and
-//! the C ABI. Uses [`crate::model`] and [`crate::format`] only.
+//! allocating), blending between stored incidences, importance sampling, spectrum to colour,
+//! the flat device layout and the C ABI. Uses [`crate::model`] and [`crate::format`] only.
+//!
+//! The facade ([`decoder`], [`AtWavelength`]) sits on the evaluator (`evaluator.rs`), which
+//! chooses each file's route once and is the one place that matches on it; the routes live in
+//! their rooms: `records/` (the records' general path and what places a query among them),
+//! `kernel/` (one wavelength on a θ line, in lanes), `factor.rs` (the factor model) and
+//! `warped/` (warped tables). `batch.rs` is the batch over the records, `sampling/` importance
+//! sampling, `color/` spectrum to colour, `gpu_layout/` the device layout, `capi.rs` the C ABI.
 
 mod at_wavelength;
 mod batch;
-mod blend;
 pub mod capi;
-pub(crate) mod cie;
 pub mod color;
 pub mod decoder;
-mod draw;
 mod evaluator;
-mod general_coefficients;
-mod general_one_wavelength;
-mod gpu_factor;
+mod factor;
 pub mod gpu_layout;
-pub(crate) mod gpu_pack;
-mod gpu_sampling;
-mod gpu_warped;
-pub(crate) mod gpu_words;
 mod kernel;
-mod lattice;
-mod proposal;
-mod resident;
+mod records;
 pub mod sampling;
-mod sums;
-mod theta_line;
 mod warped;
 
 pub use at_wavelength::AtWavelength;
 pub use decoder::Decoder;
-pub use draw::Sample;
+pub use sampling::sample::Sample;
 pub use warped::Residency;
 // The encoder integrates the warped tables' VNDF as the decoder does.
 #[cfg(feature = "encode")]

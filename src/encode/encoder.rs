@@ -5,10 +5,10 @@ use crate::encode::basis::{
     derive_basis, rank_meeting, rounded_table, series_limit, singular_vectors, spectral_space,
     AUTO_RANK_MAX,
 };
-use crate::encode::fit::factor_fit::{FactorOptions, INNER_FOLD_SALT};
-use crate::encode::fit::{rel, stored_error, CriticalAngle, FitContext, PeakMode};
+use crate::encode::factor_fit::{FactorOptions, INNER_FOLD_SALT};
+use crate::encode::fit::{fit_incidence, CriticalAngle, FitContext, PeakMode};
 use crate::encode::fit::{JointOptions, LobeFamily};
-use crate::encode::metrics::ErrorSums;
+use crate::encode::metrics::{rel, stored_error, ErrorSums};
 use crate::encode::nearest::nearest_k_fold;
 use crate::encode::options::{metadata_json, sample_positions};
 pub use crate::encode::options::{
@@ -23,92 +23,79 @@ use crate::model::spectral::{BasisTable, SpectralBasis};
 use crate::model::Precision;
 use rayon::prelude::*;
 
-impl EncodeOptions {
-    /// The SH level to fit, resolving `None`: 1 for the paper's split, 4 without a peak, 6 for
-    /// the joint fit.
-    pub fn effective_sh_level(&self) -> usize {
-        self.sh_level.unwrap_or(match self.peak {
-            PeakMode::Paper => 1,
-            PeakMode::None => 4,
-            PeakMode::Joint => 6,
-        })
-    }
+/// The number of terms to fit, resolving `None`.
+pub fn effective_terms(opts: &EncodeOptions, set: &SampleSet) -> usize {
+    terms_and_table(opts, set).0
+}
 
-    /// The number of terms to fit, resolving `None`.
-    pub fn effective_terms(&self, set: &SampleSet) -> usize {
-        self.terms_and_table(set).0
+/// The number of terms, and for the data-derived basis its table, from one SVD.
+fn terms_and_table(opts: &EncodeOptions, set: &SampleSet) -> (usize, Option<BasisTable>) {
+    let w = set.wavelengths.len();
+    match (opts.terms, opts.basis) {
+        (Some(k), SpectralBasis::Tabulated) if k >= 1 && k <= w => {
+            (k, Some(derive_basis(set, k, opts.precision)))
+        }
+        (Some(k), _) => (k, None),
+        (None, SpectralBasis::Tabulated) => {
+            // The leading rows of a rank-8 derivation are the lower-rank bases themselves;
+            // the rank is chosen on the exact (orthonormal) vectors, then they are rounded.
+            let limit = 0.5 * opts.max_error.unwrap_or(DEFAULT_MAX_ERROR);
+            let mut vectors = singular_vectors(set, AUTO_RANK_MAX.min(w));
+            let r = rank_meeting(set, &vectors, limit);
+            vectors.truncate(r * w);
+            (r, Some(rounded_table(set, vectors, opts.precision)))
+        }
+        (None, basis) => (13.min(series_limit(basis, w)), None),
     }
+}
 
-    /// The number of terms, and for the data-derived basis its table, from one SVD.
-    fn terms_and_table(&self, set: &SampleSet) -> (usize, Option<BasisTable>) {
-        let w = set.wavelengths.len();
-        match (self.terms, self.basis) {
-            (Some(k), SpectralBasis::Tabulated) if k >= 1 && k <= w => {
-                (k, Some(derive_basis(set, k, self.precision)))
-            }
-            (Some(k), _) => (k, None),
-            (None, SpectralBasis::Tabulated) => {
-                // The leading rows of a rank-8 derivation are the lower-rank bases themselves;
-                // the rank is chosen on the exact (orthonormal) vectors, then they are rounded.
-                let limit = 0.5 * self.max_error.unwrap_or(DEFAULT_MAX_ERROR);
-                let mut vectors = singular_vectors(set, AUTO_RANK_MAX.min(w));
-                let r = rank_meeting(set, &vectors, limit);
-                vectors.truncate(r * w);
-                (r, Some(rounded_table(set, vectors, self.precision)))
-            }
-            (None, basis) => (13.min(series_limit(basis, w)), None),
+fn check_terms(opts: &EncodeOptions, set: &SampleSet, terms: usize) -> Result<()> {
+    let w = set.wavelengths.len();
+    if terms == 0 || terms > MAX_TERMS {
+        return Err(Error::Parameter(format!(
+            "--terms {terms} is outside 1..={MAX_TERMS}"
+        )));
+    }
+    if terms > w {
+        return Err(Error::Parameter(format!(
+            "--terms {terms} exceeds the {w} wavelength samples of the input: a spectral \
+             series cannot have more terms than samples (use --terms {w} or fewer)"
+        )));
+    }
+    let limit = series_limit(opts.basis, w);
+    if terms > limit {
+        return Err(Error::Parameter(format!(
+            "--terms {terms} is too many for the periodic Fourier basis on {w} wavelength \
+             samples: it takes λmin and λmax as one point, leaving {limit} independent \
+             values (use --terms {limit} or fewer, or --basis cosine)"
+        )));
+    }
+    let l = opts.effective_sh_level();
+    if l > MAX_SH_LEVEL {
+        return Err(Error::Parameter(format!(
+            "--sh-level {l} is above the maximum {MAX_SH_LEVEL}"
+        )));
+    }
+    if let Some(e) = opts.max_error {
+        if !(e.is_finite() && e > 0.0) {
+            return Err(Error::Parameter(format!(
+                "--max-error {e} must be a positive fraction (0.01 = 1%)"
+            )));
+        }
+        if opts.peak != PeakMode::Joint {
+            return Err(Error::Parameter(
+                "--max-error needs --peak joint (the paper's method has no size to choose)".into(),
+            ));
         }
     }
-
-    fn check(&self, set: &SampleSet, terms: usize) -> Result<()> {
-        let w = set.wavelengths.len();
-        if terms == 0 || terms > MAX_TERMS {
+    if let CriticalAngle::Fixed(g) = opts.critical_angle {
+        if !(g.is_finite() && (0.0..=180.0).contains(&g)) {
             return Err(Error::Parameter(format!(
-                "--terms {terms} is outside 1..={MAX_TERMS}"
+                "--critical-angle {g} is outside 0..=180 degrees"
             )));
         }
-        if terms > w {
-            return Err(Error::Parameter(format!(
-                "--terms {terms} exceeds the {w} wavelength samples of the input: a spectral \
-                 series cannot have more terms than samples (use --terms {w} or fewer)"
-            )));
-        }
-        let limit = series_limit(self.basis, w);
-        if terms > limit {
-            return Err(Error::Parameter(format!(
-                "--terms {terms} is too many for the periodic Fourier basis on {w} wavelength \
-                 samples: it takes λmin and λmax as one point, leaving {limit} independent \
-                 values (use --terms {limit} or fewer, or --basis cosine)"
-            )));
-        }
-        let l = self.effective_sh_level();
-        if l > MAX_SH_LEVEL {
-            return Err(Error::Parameter(format!(
-                "--sh-level {l} is above the maximum {MAX_SH_LEVEL}"
-            )));
-        }
-        if let Some(e) = self.max_error {
-            if !(e.is_finite() && e > 0.0) {
-                return Err(Error::Parameter(format!(
-                    "--max-error {e} must be a positive fraction (0.01 = 1%)"
-                )));
-            }
-            if self.peak != PeakMode::Joint {
-                return Err(Error::Parameter(
-                    "--max-error needs --peak joint (the paper's method has no size to choose)"
-                        .into(),
-                ));
-            }
-        }
-        if let CriticalAngle::Fixed(g) = self.critical_angle {
-            if !(g.is_finite() && (0.0..=180.0).contains(&g)) {
-                return Err(Error::Parameter(format!(
-                    "--critical-angle {g} is outside 0..=180 degrees"
-                )));
-            }
-        }
-        Ok(())
     }
+    Ok(())
 }
 
 /// Encodes `set` with the model `opts.model` names.
@@ -407,8 +394,8 @@ pub fn encode_records_with_progress(
         lobes: lobe_families(opts, set),
         ..opts.clone()
     };
-    let (terms, table) = opts.terms_and_table(set);
-    opts.check(set, terms)?;
+    let (terms, table) = terms_and_table(opts, set);
+    check_terms(opts, set, terms)?;
     let mut spectral = spectral_space(opts.basis, terms, &set.wavelengths);
     spectral.table = table;
     spectral.validate().map_err(Error::Parameter)?;
@@ -434,7 +421,7 @@ pub fn encode_records_with_progress(
         .par_iter()
         .map(|s| {
             let mut note = None;
-            let fit = ctx.fit(s).or_else(|e| {
+            let fit = fit_incidence(&ctx, s).or_else(|e| {
                 // The paper's split needs (L+1)² background samples; with fewer outgoing
                 // samples the level is lowered until the fit is determined, and reported.
                 if opts.peak != PeakMode::Paper {
@@ -448,7 +435,7 @@ pub fn encode_records_with_progress(
                         opts.peak,
                         opts.critical_angle,
                     );
-                    if let Ok(f) = lower.fit(s) {
+                    if let Ok(f) = fit_incidence(&lower, s) {
                         note = Some(format!(
                             "incidence ({}, {}): {} outgoing samples cannot determine SH level \
                              {} beside the peak; stored at level {level}",
@@ -503,8 +490,8 @@ pub fn encode_records_with_progress(
                 if let Some(p) = &mut pooled {
                     p.merge(ho);
                 }
-                h.rel.push(crate::encode::fit::stored_error(ho.rel()));
-                h.log.push(crate::encode::fit::stored_error(ho.log()));
+                h.rel.push(stored_error(ho.rel()));
+                h.log.push(stored_error(ho.log()));
                 if f.below_floor {
                     floor.push(ho.rel());
                 }

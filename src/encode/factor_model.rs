@@ -3,9 +3,8 @@
 //! measured incidence (the format's records carry the incidences, their sample positions and
 //! their errors).
 
-use crate::encode::fit::factor_fit::{fit_factor, score, FactorOptions};
-use crate::encode::fit::stored_error;
-use crate::encode::metrics::{log_epsilon, ErrorSums};
+use crate::encode::factor_fit::{fit_factor, score, FactorOptions};
+use crate::encode::metrics::{log_epsilon, rel, stored_error, ErrorSums};
 use crate::encode::options::{
     metadata_envelope, sample_positions, EncodeOptions, Encoded, MetaLevel,
 };
@@ -69,13 +68,9 @@ pub fn encode_shared(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
         score(&fit.model, set, &|j, _| j == i, eps, &mut sums);
         sq_e += sums.sq_error;
         sq_r += sums.sq_reference;
-        records.push(empty_record(
-            s.theta_i,
-            s.phi_i,
-            crate::encode::fit::stored_error(sums.rel()),
-        ));
+        records.push(empty_record(s.theta_i, s.phi_i, stored_error(sums.rel())));
     }
-    let rel_error = crate::encode::fit::rel(sq_e, sq_r);
+    let rel_error = rel(sq_e, sq_r);
     let pooled = fit.held_out().map(|per| {
         let mut p = ErrorSums::default();
         per.iter().for_each(|s| p.merge(s));

@@ -42,7 +42,7 @@ impl ErrorSums {
 
     /// sqrt(Σ(ρ̂ − ρ)² / Σρ²); 0 when both are 0, +∞ for energy where the reference has none.
     pub fn rel(&self) -> f64 {
-        crate::encode::fit::rel(self.sq_error, self.sq_reference)
+        rel(self.sq_error, self.sq_reference)
     }
 
     /// The RMS log ratio; 0 with no values.
@@ -193,4 +193,21 @@ fn subset_directions(s: &IncidentSamples, keep: &[usize], w: usize) -> IncidentS
             .flat_map(|&d| s.values[d * w..(d + 1) * w].iter().copied())
             .collect(),
     }
+}
+
+/// sqrt(Σ(ρ̂−ρ)² / Σρ²); 0 for an all-zero reference reproduced exactly, +∞ if not.
+pub fn rel(sq_error: f64, sq_reference: f64) -> f64 {
+    if sq_reference > 0.0 {
+        (sq_error / sq_reference).sqrt()
+    } else if sq_error == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The error as a record stores it: finite, so +∞ (an all-zero reference not reproduced) is
+/// stored as the largest f32.
+pub fn stored_error(e: f64) -> f32 {
+    (e as f32).min(f32::MAX)
 }

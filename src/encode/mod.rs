@@ -5,6 +5,7 @@
 
 pub mod basis;
 pub mod encoder;
+pub mod factor_fit;
 pub mod factor_model;
 pub mod fit;
 pub mod info;
@@ -20,7 +21,4 @@ pub mod validate;
 pub mod warped;
 
 pub use encoder::{encode, EncodeOptions, Encoded, ModelChoice};
-/// The factor-model encoder's former path (`encode::shared`), kept for code that names it.
-#[doc(hidden)]
-pub use factor_model as shared;
 pub use samples::{IncidentSamples, SampleSet};

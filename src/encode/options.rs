@@ -1,7 +1,7 @@
 //! What an encode is asked ([`EncodeOptions`], [`ModelChoice`], [`MetaLevel`]) and gives back
 //! ([`Encoded`]), and what every model's encoder writes beside its model: the sample positions
 //! and the `meta` text. Shared by the records' encoder ([`super::encoder`]) and the factor
-//! model's ([`super::shared`]), which the records' encoder also calls.
+//! model's ([`super::factor_model`]), which the records' encoder also calls.
 
 use crate::encode::fit::{CriticalAngle, LobeFamily, PeakMode};
 use crate::encode::metrics::ErrorSums;
@@ -124,6 +124,16 @@ impl EncodeOptions {
             max_error: None,
             ..Self::default()
         }
+    }
+
+    /// The SH level to fit, resolving `None`: 1 for the paper's split, 4 without a peak, 6 for
+    /// the joint fit.
+    pub fn effective_sh_level(&self) -> usize {
+        self.sh_level.unwrap_or(match self.peak {
+            PeakMode::Paper => 1,
+            PeakMode::None => 4,
+            PeakMode::Joint => 6,
+        })
     }
 }
 

@@ -18,7 +18,7 @@
 use crate::decode::Decoder;
 use crate::encode::encoder::{encode, EncodeOptions};
 use crate::encode::metrics::score;
-pub use crate::encode::metrics::{fold_order, k_fold, log_epsilon, ErrorSums};
+use crate::encode::metrics::{k_fold, log_epsilon, ErrorSums};
 use crate::encode::nearest::{nearest_k_fold, nearest_left_out};
 use crate::encode::samples::SampleSet;
 use crate::error::{Error, Result};
@@ -280,6 +280,7 @@ pub fn validate(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::encode::metrics::fold_order;
 
     #[test]
     fn folds_partition_every_incidence() {

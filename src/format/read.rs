@@ -1,9 +1,9 @@
 //! Reading a file: every chunk framed, CRC-checked and bounded by the bytes present, then
 //! validated into a [`Material`] (`spec/FORMAT.md`, "Decoder behaviour").
 
+use super::consts::*;
 use super::fields::{Fields, Head};
 use super::read_records::{read_compact_records, read_record};
-use super::*;
 use crate::error::{Error, Location, Result};
 use crate::model::factor::{
     FactorComponent, FactorModel, Feature, MAX_COMPONENTS, MAX_FEATURES, MAX_RANK,

@@ -1,8 +1,8 @@
 //! Reading records: a `RECD` chunk (one record, `spec/FORMAT.md` §3.3) or a `RECS` chunk (all
 //! of them, compact, §3.9); both end in the same values, read by one function.
 
+use super::consts::*;
 use super::fields::{Fields, Head};
-use super::*;
 use crate::error::Result;
 use crate::model::material::*;
 use crate::model::sh::sh_count;

@@ -318,6 +318,12 @@ pub(super) fn warp_chunk(w: &WarpedModel, k: usize) -> Vec<u8> {
     d
 }
 
+/// The bytes of a `WARP` chunk's payload for these tables of `k` spectral terms, as the writer
+/// writes it in the model's coding (the encoder compares transforms by it).
+pub fn warp_payload_len(w: &WarpedModel, k: usize) -> usize {
+    payload(w, k).len()
+}
+
 /// The payload as the model's coding writes it, for tables of `k` spectral terms.
 pub(crate) fn payload(w: &WarpedModel, k: usize) -> Vec<u8> {
     match w.coding {

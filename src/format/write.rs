@@ -1,6 +1,6 @@
 //! Writing a material: chunks framed and checksummed, f16 values under a power-of-two scale.
 
-use super::*;
+use super::consts::*;
 use crate::error::{Error, Result};
 use crate::model::basis_storage::BasisStorage;
 use crate::model::factor::FactorModel;

@@ -367,6 +367,8 @@ pub trait Real:
     /// `a()` where `m` holds, else `b`: one number computes `a()` only where it is needed (a
     /// scalar `exp` and `ln` are calls worth skipping), lanes compute it for all and select.
     fn select_with(m: Self::Mask, a: impl FnOnce() -> Self, b: Self) -> Self;
+    /// Rounded to the nearest binary32 and back (what the format stores blended shapes as).
+    fn round_f32(self) -> Self;
 }
 
 impl Real for f64 {
@@ -427,6 +429,10 @@ impl Real for f64 {
             b
         }
     }
+    #[inline(always)]
+    fn round_f32(self) -> Self {
+        self as f32 as f64
+    }
 }
 
 impl<const N: usize> Real for Lanes<N> {
@@ -478,6 +484,10 @@ impl<const N: usize> Real for Lanes<N> {
     #[inline(always)]
     fn select_with(m: Mask<N>, a: impl FnOnce() -> Self, b: Self) -> Self {
         Lanes::select(m, a(), b)
+    }
+    #[inline(always)]
+    fn round_f32(self) -> Self {
+        Lanes::round_f32(self)
     }
 }
 

@@ -316,7 +316,7 @@ pub struct ShapeRule {
     pub proposal: Proposal,
 }
 
-/// The importance-sampling proposal family of a lobe kind (`decode/sampling.rs` draws each
+/// The importance-sampling proposal family of a lobe kind (`decode/sampling/` draws each
 /// family, from the blended shape parameters): a new kind whose lobe one of them follows needs
 /// no sampling code of its own.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -367,6 +367,42 @@ pub fn shape_rule(kind: LobeKind) -> ShapeRule {
             proposal: Proposal::VisibleNormalsAniso,
         },
     }
+}
+
+/// The shape parameters of a lobe shared by blended records, as its kind's [`shape_rule`]
+/// blends them (`spec/EVALUATION.md`, "Lobes by position"): record i's weight `w[i]`, its
+/// stored parameter j `stored(i, j)` and that parameter's logarithm `ln_stored(i, j)`; `axis`
+/// the blended axis ψ (kind 5, `model::angles::mean_axis_deg`). One record keeps its own
+/// values. Written once over [`Real`]: every route of the decoder (one query, its batch
+/// kernel's lanes) and the sampler blend through it. The peak direction blends by
+/// [`blend_peak`]; the angle Gaussian's widths per term at evaluation.
+#[inline(always)]
+pub fn blend_shape<R: Real>(
+    kind: LobeKind,
+    w: &[R],
+    stored: impl Fn(usize, usize) -> f64,
+    ln_stored: impl Fn(usize, usize) -> f64,
+    axis: impl Fn() -> f64,
+) -> [R; 6] {
+    let rule = shape_rule(kind);
+    let mut p = [R::splat(0.0); 6];
+    for (j, (p, how)) in p.iter_mut().zip(rule.params).enumerate() {
+        if w.len() == 1 {
+            *p = R::splat(stored(0, j));
+            continue;
+        }
+        let v = match how {
+            ParamBlend::Geometric => {
+                blend_geometric(w.iter().enumerate().map(|(i, &w)| (w, ln_stored(i, j))))
+            }
+            ParamBlend::Linear => {
+                blend_linear(w.iter().enumerate().map(|(i, &w)| (w, stored(i, j))))
+            }
+            ParamBlend::Axis => R::splat(axis()),
+        };
+        *p = if rule.round_f32 { v.round_f32() } else { v };
+    }
+    p
 }
 
 /// [`MicrofacetGeometry::variants_aniso`] from scratch, for parameters as stored.

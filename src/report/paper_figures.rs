@@ -203,7 +203,7 @@ fn fig6_materials(quick: bool) -> Vec<(f64, f64)> {
 fn relative(a: &[f64], b: &[f64]) -> f64 {
     let e: f64 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
     let r: f64 = b.iter().map(|y| y * y).sum();
-    crate::encode::fit::rel(e, r)
+    crate::encode::metrics::rel(e, r)
 }
 
 /// Computes the three figures' data (in parallel over materials).

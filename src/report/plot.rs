@@ -153,7 +153,7 @@ fn rel_l2(approx: &[f64], reference: &[f64]) -> f64 {
         .map(|(a, b)| (a - b) * (a - b))
         .sum();
     let r: f64 = reference.iter().map(|b| b * b).sum();
-    crate::encode::fit::rel(e, r)
+    crate::encode::metrics::rel(e, r)
 }
 
 /// Computes what `sbrdf plot` draws for the record nearest `opts.incident`.

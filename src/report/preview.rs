@@ -9,11 +9,9 @@ pub use crate::preview::{Preview, PreviewOptions};
 use crate::Decoder;
 use rayon::prelude::*;
 
-impl Preview {
-    /// The preview encoded as a PNG file's bytes.
-    pub fn png(&self) -> Result<Vec<u8>> {
-        encode_png(&self.rgb, self.size, self.size)
-    }
+/// A preview encoded as a PNG file's bytes.
+pub fn preview_png(p: &Preview) -> Result<Vec<u8>> {
+    encode_png(&p.rgb, p.size, p.size)
 }
 
 /// Renders a sphere with the file's BRDF (orthographic camera, sphere filling 90% of the

@@ -12,12 +12,12 @@
 use super::source::{averaged, values_density, Dims, ExactTables, Incidence, ValuesRow};
 use super::source::{TableView, VndfRow, WarpSource};
 use super::vndf::Column;
-use crate::decode::gpu_words::{
+use crate::decode::gpu_layout::words::{
     codes, warped, warped_column, warped_incidence, warped_table, warped_values,
 };
 use crate::error::{Error, Result};
 
-// Word offsets and sizes are the layout's one definition (`crate::decode::gpu_words`): the
+// Word offsets and sizes are the layout's one definition (`crate::decode::gpu_layout::words`): the
 // section's header (`warped`), a stored incidence (6 words: θ, sin θ, cos θ, 1/I, the values'
 // 1/total and floor), a VNDF column (5: f, sin θm, cos θm, U, V), a VNDF row (1 word: the
 // positive run in the low WARP_POSITIVE_BITS bits, the marginal above in 23-bit fixed point), a
@@ -459,7 +459,7 @@ mod tests {
             let m = read_material(&std::fs::read(&path).unwrap(), &Limits::default()).unwrap();
             let w = m.warped.as_ref().unwrap();
             let thetas: Vec<f32> = m.records.iter().map(|r| r.theta_i).collect();
-            let res = crate::decode::resident::Resident::new(&m);
+            let res = crate::decode::records::resident::Resident::new(&m);
             let exact = ExactTables::new(w, &thetas, m.spectral.terms, &res.basis_means()).unwrap();
             let compact = CompactTables::new(&exact, &w.steps).unwrap();
             (f.to_string(), exact, compact, w.steps.clone())

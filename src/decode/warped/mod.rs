@@ -15,8 +15,8 @@ mod query;
 mod source;
 mod vndf;
 
-use super::draw::{uniforms, Sample};
-use super::lattice::upper;
+use super::records::lattice::unit_above;
+use super::sampling::sample::{uniforms, Sample};
 use crate::error::Result;
 use crate::model::warped::WarpedModel;
 pub(crate) use compact::CompactTables;
@@ -155,17 +155,17 @@ fn query_terms<S: source::WarpSource>(s: &S) -> usize {
 /// density is [`pdf_warped`] at the direction as returned.
 pub(crate) fn sample_warped(w: &WarpedEval, wi: [f32; 3], u: [f32; 2]) -> Option<Sample> {
     let u = uniforms(u)?;
-    let wi = upper(wi)?;
+    let wi = unit_above(wi)?;
     let d = w.sample(wi, u)?;
     let wo = [d[0] as f32, d[1] as f32, d[2] as f32];
-    let back = upper(wo)?;
+    let back = unit_above(wo)?;
     let pdf = w.pdf(wi, back) as f32;
     (pdf > 0.0 && pdf.is_finite()).then_some(Sample { wo, pdf })
 }
 
 /// [`super::sampling::pdf`] for warped tables.
 pub(crate) fn pdf_warped(w: &WarpedEval, wi: [f32; 3], wo: [f32; 3]) -> f32 {
-    let (Some(wi), Some(wo)) = (upper(wi), upper(wo)) else {
+    let (Some(wi), Some(wo)) = (unit_above(wi), unit_above(wo)) else {
         return 0.0;
     };
     w.pdf(wi, wo) as f32

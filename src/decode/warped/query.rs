@@ -12,14 +12,14 @@
 use super::source::{mark_column, MARKS};
 use super::source::{TableView, WarpSource};
 use super::vndf::{row_total, Column, Row};
-use crate::decode::lattice::QueryFrame;
+use crate::decode::records::lattice::QueryFrame;
 use crate::model::angles::azimuth_rotation;
 use crate::model::warped::{half_vector, jacobian, lerp_nodes, HORIZON_COS, POLE_HALF_XY};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// The share of cosine-weighted hemisphere sampling in the proposal (as for records): the
 /// density stays positive wherever cos θo > 0.
-pub(crate) const COSINE_SHARE: f64 = crate::decode::draw::MIN_COSINE_WEIGHT;
+pub(crate) const COSINE_SHARE: f64 = crate::decode::sampling::sample::MIN_COSINE_WEIGHT;
 
 /// The blend of two stored incidences: `a` weighted 1 − t, `b` weighted t.
 #[derive(Clone, Copy, Debug)]

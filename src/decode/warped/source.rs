@@ -47,7 +47,7 @@ pub(crate) struct VndfRow {
 
 /// How many interior columns of a values row keep their conditional integral
 /// ([`ValuesRow::marks`]): sampling then walks at most a quarter of a row.
-pub(crate) const MARKS: usize = crate::decode::gpu_words::codes::WARP_MARKS as usize;
+pub(crate) const MARKS: usize = crate::decode::gpu_layout::words::codes::WARP_MARKS as usize;
 
 /// The columns whose conditional integrals a values row keeps: ⌊j(R−1)/4⌋ for j = 1, 2, 3.
 #[inline(always)]

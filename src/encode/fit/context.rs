@@ -3,8 +3,8 @@
 //! against samples as a decoder would, and least squares.
 
 use super::options::{CriticalAngle, JointOptions, LobeFamily, PeakMode};
+use crate::encode::metrics::ErrorSums;
 use crate::encode::samples::IncidentSamples;
-use crate::encode::validate::ErrorSums;
 use crate::model::angles::{angle_between, dir_from_deg, wrap_phi};
 use crate::model::lobes::cosine_power_of;
 use crate::model::material::{IncidentRecord, Lobe, LobeKind};
@@ -229,12 +229,6 @@ impl FitContext {
     }
 }
 
-/// The error as a record stores it: finite, so +∞ (an all-zero reference not reproduced) is
-/// stored as the largest f32.
-pub fn stored_error(e: f64) -> f32 {
-    (e as f32).min(f32::MAX)
-}
-
 /// The K×W matrix taking a sampled spectrum to its coefficients: the paper's trapezoidal Eq. (5)
 /// for its Fourier basis, least squares (the pseudo-inverse of the W×K synthesis matrix, by SVD)
 /// for every other basis.
@@ -248,17 +242,6 @@ pub fn spectral_projection(space: &SpectralSpace, wavelengths: &[f64]) -> DMatri
             let s = DMatrix::from_row_slice(w, k, &space.synthesis(wavelengths));
             lstsq(&s, &DMatrix::identity(w, w))
         }
-    }
-}
-
-/// sqrt(Σ(ρ̂−ρ)² / Σρ²); 0 for an all-zero reference reproduced exactly, +∞ if not.
-pub fn rel(sq_error: f64, sq_reference: f64) -> f64 {
-    if sq_reference > 0.0 {
-        (sq_error / sq_reference).sqrt()
-    } else if sq_error == 0.0 {
-        0.0
-    } else {
-        f64::INFINITY
     }
 }
 

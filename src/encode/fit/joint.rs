@@ -12,13 +12,13 @@
 //! the first r columns of Q span the first r basis functions: one fit gives the error of every
 //! spectral rank r ≤ K at once, which is what `--max-error` searches over.
 
-use super::context::{lstsq, lstsq_with_leverage, rel, stored_error, FitContext, Fitted};
+use super::context::{lstsq, lstsq_with_leverage, FitContext, Fitted};
 use super::options::{
     JointOptions, LobeFamily, HELD_OUT_OVERFIT, HELD_OUT_PLATEAU, HELD_OUT_SLACK,
 };
 use super::peak::find_peak_direction;
+use crate::encode::metrics::{rel, stored_error, ErrorSums};
 use crate::encode::samples::IncidentSamples;
-use crate::encode::validate::ErrorSums;
 use crate::format::quantize_record_f16;
 use crate::model::angles::{angle_between, dir_from_deg, mirror_deg, wrap_phi};
 use crate::model::lobes::cosine_power_of;

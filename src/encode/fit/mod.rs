@@ -8,30 +8,24 @@
 //! `spec/EVALUATION.md`, section "How the encoder fits (informative)".
 
 mod context;
-pub mod factor_fit;
 pub mod joint;
 mod options;
 mod paper;
 mod peak;
 
-pub use context::{lstsq, rel, spectral_projection, stored_error, FitContext, Fitted};
-/// The factor model's fitter's former path (`fit::factor`), kept for code that names it.
-#[doc(hidden)]
-pub use factor_fit as factor;
+pub use context::{lstsq, spectral_projection, FitContext, Fitted};
 pub use options::{CriticalAngle, JointOptions, LobeFamily, PeakMode};
 pub use peak::find_peak_direction;
 
 use crate::encode::samples::IncidentSamples;
 
-impl FitContext {
-    /// Fits one incident direction. Values are rounded to f32 (the caller rounds further for
-    /// f16 and re-measures with [`FitContext::measure`]).
-    pub fn fit(&self, s: &IncidentSamples) -> Result<Fitted, String> {
-        if self.peak == PeakMode::Joint {
-            let (mut f, met) = joint::fit_joint(self, s, &self.joint)?;
-            f.met = met;
-            return Ok(f);
-        }
-        self.fit_paper(s)
+/// Fits one incident direction with the fit `ctx` describes. Values are rounded to f32 (the
+/// caller rounds further for f16 and re-measures with [`FitContext::measure`]).
+pub fn fit_incidence(ctx: &FitContext, s: &IncidentSamples) -> Result<Fitted, String> {
+    if ctx.peak == PeakMode::Joint {
+        let (mut f, met) = joint::fit_joint(ctx, s, &ctx.joint)?;
+        f.met = met;
+        return Ok(f);
     }
+    paper::fit_paper(ctx, s)
 }

@@ -3,9 +3,9 @@
 //! ([`super::sampling::SamplingWeights`]), as f32 words, so that a shader draws and gives the
 //! pdf of the same mixture as [`crate::Decoder::sample`] and [`crate::Decoder::pdf`].
 
-use super::gpu_layout::word;
-use super::gpu_words::{header, lobe_weights, sampling, weights as record_weights};
-use super::sampling::SamplingWeights;
+use super::word;
+use super::words::{header, lobe_weights, sampling, weights as record_weights};
+use crate::decode::sampling::SamplingWeights;
 use crate::error::Result;
 
 /// Appends the sampling section of `records` records to the layout `out` (whose header is

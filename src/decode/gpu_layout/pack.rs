@@ -2,8 +2,8 @@
 //! each layout checked as a renderer checks it once on the host (`spec/GPU_LAYOUT.md`,
 //! "Header"), then concatenated, each at its base word.
 
-use crate::decode::gpu_layout::{GPU_LAYOUT_MAGIC, GPU_LAYOUT_VERSION};
-use crate::decode::gpu_words::header;
+use super::words::header;
+use super::{GPU_LAYOUT_MAGIC, GPU_LAYOUT_VERSION};
 use crate::{Decoder, Error, Result};
 
 /// Several materials' flat device layouts in one buffer, as a renderer uploads it: what

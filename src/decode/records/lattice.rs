@@ -4,6 +4,7 @@
 
 use super::resident::Rec;
 use crate::model::angles::{dir_from_deg, dot, rotate_about_z, unit_lanes};
+use crate::model::lanes::Real;
 use crate::model::material::Material;
 
 /// A query's incident direction turned into the frame its records are stored in: for isotropic
@@ -51,7 +52,7 @@ pub(crate) fn unit(v: [f32; 3]) -> Option<[f64; 3]> {
 /// [`unit`] for a direction that must lie on or above the surface: None also below it (ρ = 0
 /// there).
 #[inline(always)]
-pub(crate) fn upper(v: [f32; 3]) -> Option<[f64; 3]> {
+pub(crate) fn unit_above(v: [f32; 3]) -> Option<[f64; 3]> {
     unit(v).filter(|u| u[2] >= 0.0)
 }
 
@@ -158,6 +159,47 @@ impl Axis {
             (i, (x - xs[i]) / (xs[i + 1] - xs[i]))
         }
     }
+
+    /// The records a query at `x` on a θ line blends: (first, None) for record `first` alone
+    /// (at or beyond a stored θ), (first, Some(t)) for records first and first + 1 with weights
+    /// (1 − t, t). Every route places a query on a θ line through this.
+    #[inline(always)]
+    pub(crate) fn neighbours(&self, x: f64) -> (usize, Option<f64>) {
+        let (i, t) = self.bracket(x);
+        if self.xs.len() == 1 || t <= 0.0 {
+            (i, None)
+        } else if 1.0 - t <= 0.0 {
+            (i + 1, None)
+        } else {
+            (i, Some(t))
+        }
+    }
+}
+
+/// The incidence a query is evaluated at, as its horizontal length and height: its own (`r`,
+/// `z`) inside the stored θ range, the end's sine and cosine where `below` (the first end) or
+/// `above` (the last) holds (`ends`: each end's θ, sin θ, cos θ). Written once over [`Real`]:
+/// one query and the kernel's lanes clamp through it.
+#[inline(always)]
+pub(crate) fn clamp_incidence<R: Real>(
+    below: R::Mask,
+    above: R::Mask,
+    r: R,
+    z: R,
+    ends: &[(f64, f64, f64); 2],
+) -> (R, R) {
+    let [(_, s0, c0), (_, s1, c1)] = *ends;
+    let pick = |lo: f64, hi: f64, own: R| {
+        R::select(below, R::splat(lo), R::select(above, R::splat(hi), own))
+    };
+    (pick(s0, s1, r), pick(c0, c1, z))
+}
+
+/// Where polar angles `theta` (degrees) fall outside the stored range `ends`: below its first
+/// end, above its last.
+#[inline(always)]
+pub(crate) fn outside<R: Real>(theta: R, ends: &[(f64, f64, f64); 2]) -> (R::Mask, R::Mask) {
+    (R::splat(ends[0].0).gt(theta), theta.gt(R::splat(ends[1].0)))
 }
 
 impl Lattice {
@@ -203,15 +245,14 @@ impl Lattice {
     pub(crate) fn blend(&self, recs: &[Rec], theta: f64, phi: f64) -> (Blend, f64, f64) {
         match self {
             Lattice::Theta(thetas) => {
-                let (i, t) = thetas.bracket(theta);
-                let mut b = Blend::one(i);
-                if thetas.xs.len() > 1 {
-                    b.w[0] = 1.0 - t;
-                    b.push(i + 1, t);
-                    if b.w[0] <= 0.0 {
-                        b = Blend::one(i + 1);
-                    }
-                }
+                let b = match thetas.neighbours(theta) {
+                    (i, None) => Blend::one(i),
+                    (i, Some(t)) => Blend {
+                        n: 2,
+                        rec: [i, i + 1, 0, 0],
+                        w: [1.0 - t, t, 0.0, 0.0],
+                    },
+                };
                 (b, theta.clamp(thetas.first(), thetas.last()), phi)
             }
             Lattice::Grid { thetas, phis } => {

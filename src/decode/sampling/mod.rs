@@ -21,16 +21,20 @@
 //! other parameter is. The cosine keeps at least [`MIN_COSINE_WEIGHT`] of the mixture, so the
 //! density is positive wherever cos θo > 0, whatever the lobes claim.
 
-use super::evaluator::Evaluator;
-use super::lattice::{unit, upper, QueryFrame};
+pub(crate) mod proposal;
+pub(crate) mod sample;
+
+use crate::decode::records::blend::{blended_axis, blended_peak};
+use crate::decode::records::incidence::Records;
+use crate::decode::records::lattice::{unit, unit_above, QueryFrame};
 use crate::model::angles::{angle_between, dir_from_deg};
-use crate::model::lobes::{lobe_values, shape_rule, Proposal};
+use crate::model::lobes::{blend_shape, lobe_values, shape_rule, Proposal};
 use crate::model::material::{LobeKind, MAX_LOBES};
 use std::f64::consts::PI;
 
-use super::draw::{uniforms, ONE_BELOW};
-pub use super::draw::{Sample, MIN_COSINE_WEIGHT};
-use super::proposal::Shape;
+use proposal::Shape;
+use sample::{uniforms, ONE_BELOW};
+pub use sample::{Sample, MIN_COSINE_WEIGHT};
 
 /// Strata per axis of the quadrature that estimates each lobe's energy when a file is opened.
 /// Against a 64 × 64 reference on the golden files, 4 × 4 is within 6% (2 × 2: 11%, 8 × 8: 4%),
@@ -60,8 +64,8 @@ struct LobeWeight {
 }
 
 impl SamplingWeights {
-    pub(crate) fn new(dec: &Evaluator) -> Self {
-        let res = &dec.res;
+    pub(crate) fn new(dec: Records) -> Self {
+        let res = dec.res;
         let bmean = res.basis_means();
         let integrals = cosine_integrals(res.sh_level);
         let mut background = Vec::with_capacity(res.recs.len());
@@ -160,14 +164,14 @@ fn cosine_integrals(level: usize) -> Vec<f64> {
 /// ∫ f̄ cos θo dω over the upper hemisphere of lobe `li` of record `r` alone, at the record's
 /// incidence `wi`, by a stratified quadrature with the lobe's own proposal as the density.
 fn lobe_energy(
-    dec: &Evaluator,
+    dec: Records,
     r: usize,
     li: usize,
     bmean: &[f64],
     shape: Shape,
     wi: [f64; 3],
 ) -> f64 {
-    let res = &dec.res;
+    let res = dec.res;
     let rec = &res.recs[r];
     let lobe = res.lobe(rec, li);
     let t = rec.terms as usize;
@@ -219,7 +223,7 @@ fn lobe_energy(
 /// record i's Gaussian proposal width (ln rad²), `incidence` the evaluation incidence (degrees)
 /// and `wi` its unit vector.
 fn lobe_shape(
-    dec: &Evaluator,
+    dec: Records,
     recs: &[usize],
     ws: &[f64],
     li: usize,
@@ -227,51 +231,34 @@ fn lobe_shape(
     incidence: (f64, f64),
     wi: [f64; 3],
 ) -> Shape {
-    let res = &dec.res;
-    let rec0 = &res.recs[recs[0]];
-    let lobe0 = res.lobe(rec0, li);
-    let geo_mean = |param: usize| -> f64 {
-        if recs.len() == 1 {
-            return res.params[lobe0.par as usize + param] as f64;
-        }
-        crate::model::lobes::blend_geometric(recs.iter().zip(ws).map(|(&r, &w)| {
-            (
-                w,
-                res.ln_params[res.lobe(&res.recs[r], li).par as usize + param],
-            )
-        }))
-    };
-    match shape_rule(lobe0.kind).proposal {
+    let res = dec.res;
+    let kind = res.lobe(&res.recs[recs[0]], li).kind;
+    // The shape as evaluation blends it (`model::lobes::blend_shape`, by the kind's rule).
+    let par = |i: usize| res.lobe(&res.recs[recs[i]], li).par as usize;
+    let p = blend_shape(
+        kind,
+        ws,
+        |i, j| res.params[par(i) + j] as f64,
+        |i, j| res.ln_params[par(i) + j],
+        || blended_axis(res, recs, ws, li),
+    );
+    match shape_rule(kind).proposal {
         Proposal::PeakVonMisesFisher => {
             let wsum: f64 = ws.iter().sum();
             let ln_b = ws.iter().zip(ln_widths).map(|(w, l)| w * l).sum::<f64>() / wsum;
             let kappa = 2.0 * (-ln_b).exp();
             Shape::VonMisesFisher {
-                p: dec.res.blended_peak(recs, ws, incidence),
+                p: blended_peak(dec.res, recs, ws, incidence),
                 kappa,
                 m: -(-2.0 * kappa).exp_m1(),
             }
         }
         Proposal::PeakCosinePower => Shape::CosinePower {
-            p: dec.res.blended_peak(recs, ws, incidence),
-            n: geo_mean(0),
+            p: blended_peak(dec.res, recs, ws, incidence),
+            n: p[0],
         },
-        Proposal::VisibleNormals { sin2 } => {
-            // Rounded to f32 as the evaluation rounds them.
-            let b = geo_mean(0) as f32 as f64;
-            let c = geo_mean(1) as f32 as f64;
-            Shape::visible_normals(sin2, b, c, wi)
-        }
-        Proposal::VisibleNormalsAniso => {
-            let r32 = |v: f64| v as f32 as f64;
-            Shape::visible_normals_aniso(
-                r32(geo_mean(0)),
-                r32(geo_mean(1)),
-                r32(geo_mean(2)),
-                r32(dec.res.blended_axis(recs, ws, li)),
-                wi,
-            )
-        }
+        Proposal::VisibleNormals { sin2 } => Shape::visible_normals(sin2, p[0], p[1], wi),
+        Proposal::VisibleNormalsAniso => Shape::visible_normals_aniso(p[0], p[1], p[2], p[5], wi),
     }
 }
 
@@ -285,9 +272,9 @@ struct Mixture {
 }
 
 impl Mixture {
-    fn new(dec: &Evaluator, sw: &SamplingWeights, q: &QueryFrame) -> Self {
-        let res = &dec.res;
-        let (blend, wi, theta, phi) = dec.resolve(q.theta, q.phi, Some(q.wi));
+    fn new(dec: Records, sw: &SamplingWeights, q: &QueryFrame) -> Self {
+        let res = dec.res;
+        let (blend, wi, theta, phi) = dec.places.resolve(dec.res, q.theta, q.phi, Some(q.wi));
         let recs = &blend.rec[..blend.n];
         let ws = &blend.w[..blend.n];
         let mut mix = Mixture {
@@ -397,7 +384,7 @@ impl Mixture {
 }
 
 pub(crate) fn sample(
-    dec: &Evaluator,
+    dec: Records,
     sw: &SamplingWeights,
     wi: [f32; 3],
     u: [f32; 2],
@@ -407,7 +394,7 @@ pub(crate) fn sample(
     if wi[2] < 0.0 {
         return None;
     }
-    let q = dec.query_frame(wi);
+    let q = dec.places.query_frame(wi);
     let mix = Mixture::new(dec, sw, &q);
     let w = q.out_of_frame(mix.draw(u)?);
     let wo = [w[0] as f32, w[1] as f32, w[2] as f32];
@@ -417,11 +404,11 @@ pub(crate) fn sample(
     (pdf > 0.0 && pdf.is_finite()).then_some(Sample { wo, pdf })
 }
 
-pub(crate) fn pdf(dec: &Evaluator, sw: &SamplingWeights, wi: [f32; 3], wo: [f32; 3]) -> f32 {
-    let (Some(wi), Some(wo)) = (upper(wi), upper(wo)) else {
+pub(crate) fn pdf(dec: Records, sw: &SamplingWeights, wi: [f32; 3], wo: [f32; 3]) -> f32 {
+    let (Some(wi), Some(wo)) = (unit_above(wi), unit_above(wo)) else {
         return 0.0;
     };
-    let q = dec.query_frame(wi);
+    let q = dec.places.query_frame(wi);
     Mixture::new(dec, sw, &q).density(q.in_frame(wo)) as f32
 }
 

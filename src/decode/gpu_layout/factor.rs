@@ -2,9 +2,9 @@
 //! section", kind 1): the `FACT` chunk's ranges, component descriptors and values as words, so
 //! that a shader adds F(ωi, ωo, λ) (`spec/EVALUATION.md`, "Factor model") to the records' value.
 
-use super::gpu_layout::{push_values, word};
-use super::gpu_words::codes::{ENCODING_F16_PAIRS, ENCODING_F32, MODEL_FACTOR};
-use super::gpu_words::{component, factor, header, model as model_words};
+use super::words::codes::{ENCODING_F16_PAIRS, ENCODING_F32, MODEL_FACTOR};
+use super::words::{component, factor, header, model as model_words};
+use super::{push_values, word};
 use crate::error::Result;
 use crate::model::factor::FactorModel;
 use crate::model::Precision;

@@ -1,4 +1,4 @@
-//! The closed-form proposal densities importance sampling mixes ([`super::sampling`]), each over
+//! The closed-form proposal densities importance sampling mixes ([`super`]), each over
 //! the whole sphere in the records' frame: the cosine, Phong's cosine power about a peak, a von
 //! Mises–Fisher distribution, and GGX's distribution of visible normals reflecting the incident
 //! direction (Heitz 2018); each draws a direction and gives its density.

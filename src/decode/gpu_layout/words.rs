@@ -2,7 +2,7 @@
 //!
 //! Every table of the layout (the header, a record table entry, a lobe table entry, the
 //! sampling section, the model section) is a module here whose constants are the word offsets
-//! the writers (`gpu_layout.rs`, `gpu_sampling.rs`, `gpu_factor.rs`) use, and whose `SECTION`
+//! the writers (`mod.rs`, `sampling.rs`, `factor.rs`, `warped.rs` here) use, and whose `SECTION`
 //! lists them for the two generated or checked copies:
 //!
 //! * the shader's named constants, the block of `shaders/sbrdf.wgsl` between
@@ -10,7 +10,7 @@
 //!   [`wgsl_block`] writes (the test `gpu::tests::layout_words_match_the_rust_table` fails when
 //!   the shader's block differs, and says how to regenerate it);
 //! * the tables of `spec/GPU_LAYOUT.md`, whose rows (word, type, and the words of each field's
-//!   description in [`Field::spec`]) the test `gpu_words::tests::spec_tables_match` compares
+//!   description in [`Field::spec`]) the test `words::tests::spec_tables_match` compares
 //!   with these.
 //!
 //! A new table (a model section of another kind, say) is one more `section!` here, its rows in
@@ -410,7 +410,7 @@ const CODES: [(&str, u32, &str); 10] = [
 #[cfg_attr(not(test), allow(dead_code))] // read by the tests of this file and of gpu.rs
 pub(crate) fn wgsl_block() -> String {
     let mut s = String::from(
-        "// Generated from src/decode/gpu_words.rs, the one definition of spec/GPU_LAYOUT.md's word\n\
+        "// Generated from src/decode/gpu_layout/words.rs, the one definition of spec/GPU_LAYOUT.md's word\n\
          // offsets; do not edit (the test gpu::tests::layout_words_match_the_rust_table says how to\n\
          // regenerate). Offsets are in words, relative to what each table's comment says.\n",
     );
@@ -449,7 +449,7 @@ mod tests {
     use super::*;
 
     /// The spec's text.
-    const SPEC: &str = include_str!("../../spec/GPU_LAYOUT.md");
+    const SPEC: &str = include_str!("../../../spec/GPU_LAYOUT.md");
 
     /// One row of a spec table: (first word, words per repeated entry, last word, type,
     /// description), parsed from its word column ("7", "M + 14 + 4c", "1 + 2l", "S + r, r = …",
@@ -539,7 +539,7 @@ mod tests {
             assert_eq!(
                 got.len(),
                 want.len(),
-                "spec/GPU_LAYOUT.md {heading:?} table {n}: {} rows, the Rust table (src/decode/gpu_words.rs) {}",
+                "spec/GPU_LAYOUT.md {heading:?} table {n}: {} rows, the Rust table (src/decode/gpu_layout/words.rs) {}",
                 got.len(),
                 want.len()
             );
@@ -547,7 +547,7 @@ mod tests {
                 assert_eq!(
                     (g.0, g.1, g.2, g.3.as_str()),
                     (w.0, w.1, w.2, w.3),
-                    "spec/GPU_LAYOUT.md {heading:?}: the row {:?} differs from src/decode/gpu_words.rs's {:?}",
+                    "spec/GPU_LAYOUT.md {heading:?}: the row {:?} differs from src/decode/gpu_layout/words.rs's {:?}",
                     g,
                     w
                 );

@@ -2,16 +2,22 @@
 //! (f32 and u32, offsets instead of pointers) that a shader evaluates with bounded loops. Built
 //! from the decoder's resident form, so it holds exactly the values the decoder evaluates.
 
-use super::gpu_words::codes::{
-    ENCODING_F16_PAIRS, ENCODING_F32, INCIDENCE_ISOTROPIC, INCIDENCE_LATTICE, INCIDENCE_SCATTERED,
-};
-use super::gpu_words::{codes, header, lobe, record};
-use super::resident::{Rec, Resident};
+pub(crate) mod factor;
+pub(crate) mod pack;
+pub(crate) mod sampling;
+pub(crate) mod warped;
+pub(crate) mod words;
+
+use super::records::resident::{Rec, Resident};
 use crate::error::{Error, Result};
 use crate::format::f16_scale;
 use crate::model::sh::sh_count;
 use crate::model::Precision;
 use half::f16;
+use words::codes::{
+    ENCODING_F16_PAIRS, ENCODING_F32, INCIDENCE_ISOTROPIC, INCIDENCE_LATTICE, INCIDENCE_SCATTERED,
+};
+use words::{codes, header, lobe, record};
 
 /// `SBGL` read as a little-endian u32: the first word of every layout.
 pub const GPU_LAYOUT_MAGIC: u32 = codes::MAGIC;
@@ -118,7 +124,7 @@ pub(crate) fn gpu_layout(res: &Resident) -> Result<Vec<u32>> {
     h[header::OFF_THETAS] = word(off_thetas)?;
     h[header::OFF_PHIS] = word(off_phis)?;
     h[header::OFF_RECORDS] = word(off_records)?;
-    // The sampling and model sections are appended after (gpu_sampling.rs, gpu_factor.rs).
+    // The sampling and model sections are appended after (sampling.rs, factor.rs).
     h[header::OFF_SAMPLING] = 0;
     h[header::OFF_MODEL] = 0;
     Ok(out)

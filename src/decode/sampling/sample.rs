@@ -1,5 +1,5 @@
 //! What every sampler of the decoder returns and shares (the records' mixture in
-//! [`super::sampling`], the warped tables' in [`super::warped`]): the drawn direction with its
+//! [`super`], the warped tables' in `crate::decode::warped`): the drawn direction with its
 //! density, the cosine's least share, and how the two uniform numbers are taken.
 
 /// A direction drawn by [`Decoder::sample`](crate::Decoder::sample): the unit outgoing vector (toward the viewer, local

@@ -1,8 +1,7 @@
 //! Spectrum to colour, for renderers that shade in RGB: CIE 1931 2° XYZ under an illuminant, and
 //! linear sRGB (IEC 61966-2-1 primaries, D65 white).
 
-use crate::decode::cie;
-use crate::Decoder;
+pub(crate) mod cie;
 
 /// The light the reflected spectrum is seen under.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -57,28 +56,4 @@ pub fn xyz_to_linear_srgb(xyz: [f64; 3]) -> [f64; 3] {
         -0.9689 * x + 1.8758 * y + 0.0415 * z,
         0.0557 * x - 0.2040 * y + 1.0570 * z,
     ]
-}
-
-impl Decoder {
-    /// ρ(wi, wo) as CIE XYZ under `illuminant`: the spectrum evaluated at 380–780 nm every 5 nm
-    /// (held at the file's end values outside its wavelength range, as [`Decoder::eval`] does)
-    /// and integrated against the 1931 2° observer. No allocation.
-    pub fn eval_xyz(&self, wi: [f32; 3], wo: [f32; 3], illuminant: Illuminant) -> [f64; 3] {
-        let mut s = [0.0f32; cie::COUNT];
-        self.eval(wi, wo, &CIE_WAVELENGTHS, &mut s);
-        spectrum_to_xyz(&s, illuminant)
-    }
-
-    /// ρ(wi, wo) as linear sRGB under `illuminant` (D65 is sRGB's own white).
-    ///
-    /// ```
-    /// use sbrdf::decode::color::Illuminant;
-    /// let decoder = sbrdf::Decoder::open(concat!(env!("CARGO_MANIFEST_DIR"), "/samples/golden/ggx_3inc_default.sbrdf"))?;
-    /// let rgb = decoder.eval_linear_srgb([0.5, 0.0, 0.866], [-0.5, 0.0, 0.866], Illuminant::D65);
-    /// assert!(rgb.iter().all(|c| c.is_finite()));
-    /// # Ok::<(), sbrdf::Error>(())
-    /// ```
-    pub fn eval_linear_srgb(&self, wi: [f32; 3], wo: [f32; 3], illuminant: Illuminant) -> [f64; 3] {
-        xyz_to_linear_srgb(self.eval_xyz(wi, wo, illuminant))
-    }
 }

@@ -3,8 +3,8 @@
 //! (`super::warped::CompactTables`), appended as it is, so that a shader reads the numbers the
 //! CPU decoder evaluates.
 
-use super::gpu_layout::word;
-use super::gpu_words::header;
+use super::word;
+use super::words::header;
 use crate::error::Result;
 
 /// Appends a warped-tables section (its words, offsets relative to its first word) to the
