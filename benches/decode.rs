@@ -25,6 +25,9 @@ use materials::materials;
 use sbrdf::io::synth::QueryRng;
 use sbrdf::Decoder;
 
+/// The tolerances the baked view is timed at (`Decoder::baked`).
+const BAKED_TOLERANCES: [f32; 3] = [1e-2, 1e-3, 1e-4];
+
 /// Deterministic uniform pairs for `sample`.
 fn uniforms(n: usize) -> Vec<[f32; 2]> {
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
@@ -91,6 +94,27 @@ fn bench_decode(c: &mut Criterion<CpuTime>) {
                         }
                     })
                 });
+            }
+            if count == 1 {
+                // The baked view at three tolerances (files it takes): grids made once, here.
+                for tol in BAKED_TOLERANCES {
+                    let Ok(baked) = dec.baked(wl[0], tol) else {
+                        continue;
+                    };
+                    println!(
+                        "{name}: baked at τ = {tol:e}: grid side {}, {} bytes",
+                        baked.grid_side(),
+                        baked.resident_bytes()
+                    );
+                    let id = BenchmarkId::new(format!("baked_{tol:e}"), count);
+                    g.bench_with_input(id, &count, |b, _| {
+                        b.iter(|| {
+                            for (wi, wo) in &qs {
+                                black_box(baked.eval(*wi, *wo));
+                            }
+                        })
+                    });
+                }
             }
             g.bench_with_input(BenchmarkId::new("raw_table", count), &count, |b, _| {
                 b.iter(|| {

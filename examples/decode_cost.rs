@@ -8,8 +8,8 @@
 //! ```
 //!
 //! Arguments: the material (`phong9`, `ggx7`, `ptfe6`, `rgl_paper`: those of
-//! `benches/decode.rs`), the route (`eval`, `batch`, `at`, `table`, or `none` to count the set-up
-//! alone), the wavelength count and the pairs. Run it twice, with the pairs and with 0, and divide
+//! `benches/decode.rs`), the route (`eval`, `batch`, `at`, `baked` (τ = 10⁻³), `table`, or `none` to count
+//! the set-up alone), the wavelength count and the pairs. Run it twice, with the pairs and with 0, and divide
 //! the difference in instructions by the pairs: that is the route's cost per query. The first
 //! run encodes the material and keeps it with its table in `target/decode_cost/`, so that
 //! callgrind's runs read them instead of encoding under the instrumentation.
@@ -30,7 +30,7 @@ const PAIRS_DRAWN: usize = 4096;
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     if args.len() != 5 {
-        eprintln!("usage: decode_cost MATERIAL (eval|batch|at|table|none) WAVELENGTHS PAIRS");
+        eprintln!("usage: decode_cost MATERIAL (eval|batch|at|baked|table|none) WAVELENGTHS PAIRS");
         std::process::exit(2);
     }
     let (name, route) = (args[1].as_str(), args[2].as_str());
@@ -75,6 +75,13 @@ fn main() {
             let at = dec.at(wl[0]);
             for (a, b) in wis.iter().zip(&wos) {
                 sum += black_box(at.eval(*a, *b)) as f64;
+            }
+        }
+        "baked" => {
+            // τ = 10⁻³; the grids are made before the pairs (set-up, like the table's).
+            let baked = dec.baked(wl[0], 1e-3).expect("a file the baked view takes");
+            for (a, b) in wis.iter().zip(&wos) {
+                sum += black_box(baked.eval(*a, *b)) as f64;
             }
         }
         "table" => {

@@ -67,7 +67,7 @@ pub mod io;
 #[cfg(feature = "cli")]
 pub mod report;
 
-pub use decode::{AtWavelength, Decoder, Residency, Sample};
+pub use decode::{AtWavelength, Baked, Decoder, Residency, Sample};
 pub use error::{Error, Result};
 pub use format::{read_material, write_material, Limits};
 pub use model::{

@@ -2,6 +2,7 @@
 //! outgoing directions in proportion to it.
 
 use super::at_wavelength::AtWavelength;
+use super::baked::Baked;
 use super::color::{spectrum_to_xyz, xyz_to_linear_srgb, Illuminant, CIE_WAVELENGTHS};
 use super::evaluator::Evaluator;
 use super::sampling::{self, Sample, SamplingWeights};
@@ -334,6 +335,20 @@ impl Decoder {
     /// ```
     pub fn at(&self, wavelength: f32) -> AtWavelength<'_> {
         AtWavelength::new(&self.evaluator, wavelength)
+    }
+
+    /// The decoder at one wavelength, faster and approximate: each record's spherical-harmonic
+    /// part sampled on an octahedral grid of ωo (sized for `tolerance`), the lobes analytic with
+    /// their shapes blended ahead (`spec/EVALUATION.md`, "Baked views"). Every value is within `tolerance`·max(ρ, ρ̄) of
+    /// [`Decoder::eval`]'s at `[wavelength]`, ρ̄ the mean of ρ over the hemisphere's pairs
+    /// there ([`Baked::mean_value`]). Allocates its grids ([`Baked::resident_bytes`]: tens of
+    /// KiB at 10⁻², MiB at 10⁻³ and below), so make one per wavelength at open, not per query.
+    ///
+    /// Taken by files whose records go through the one-wavelength kernel (a θ line, at most two
+    /// cosine-power or microfacet lobes a record, SH level ≤ 6, ≤ 16 spectral terms); others,
+    /// and a tolerance its largest grid cannot hold, give [`Error::Parameter`] saying why.
+    pub fn baked(&self, wavelength: f32, tolerance: f32) -> Result<Baked<'_>> {
+        Baked::new(&self.evaluator, wavelength, tolerance)
     }
 
     /// The same decoder with its batch kernel run `lanes` wide (1, 4 or 8): for tests, which

@@ -10,6 +10,7 @@
 
 use super::batch;
 use super::factor::{factor_terms, value_with_factor, FactorTerms, WavelengthNodes, NO_FACTOR};
+use super::kernel::baked::{self as kernel_baked, ShapeSteps};
 use super::kernel::groups::{self, Collapsed, Kernel, Stored};
 use super::kernel::lanes_batch::{self, Pairs};
 use super::kernel::width::Width;
@@ -83,6 +84,21 @@ pub(crate) enum AtRoute {
     Basis([f64; SMALL_TERMS]),
     /// Each query through `eval` (a factor model, warped tables, more than 16 terms).
     Eval,
+}
+
+/// What a baked view keeps from the exact route at its wavelength
+/// ([`Evaluator::baked_input`]).
+#[derive(Debug, Clone)]
+pub(crate) struct BakedInput {
+    /// The wavelength's basis values.
+    pub(crate) basis: [f64; SMALL_TERMS],
+    /// Every record collapsed at them (its amplitudes; the SH coefficients grids are baked
+    /// from).
+    pub(crate) collapsed: Box<Collapsed>,
+    /// Each record's SH function count.
+    pub(crate) sh_counts: Vec<usize>,
+    /// The groups' lobe shapes blended ahead.
+    pub(crate) shapes: ShapeSteps,
 }
 
 /// A validated material in its resident form plus what makes evaluation cheap.
@@ -301,6 +317,77 @@ impl Evaluator {
                 }
             }
             _ => AtRoute::Basis(b),
+        }
+    }
+
+    /// What a baked view at `wavelength` (nm) needs from the exact route, its shapes blended
+    /// at `steps(Δ)` + 1 weights for Δ the widest change of a shape's logarithm between two
+    /// records. Only the kernel's route is baked (a θ line, at most two lobes of kinds 2–4 per
+    /// record, SH level ≤ 6, ≤ 16 terms, records that fit the collapsed table); elsewhere Err
+    /// says why.
+    pub(crate) fn baked_input(
+        &self,
+        wavelength: f32,
+        steps: impl Fn(f64) -> usize,
+    ) -> std::result::Result<BakedInput, String> {
+        let route = match &self.route {
+            Route::Kernel(_) => None,
+            Route::Records => Some("records the one-wavelength kernel does not take"),
+            Route::Factor(_) => Some("a factor model"),
+            Route::Warped(_) => Some("warped tables"),
+        };
+        if let Some(what) = route {
+            return Err(format!(
+                "a baked view takes records on a θ line with at most two cosine-power or \
+                 microfacet lobes each, SH level ≤ 6 and ≤ 16 spectral terms; this file has {what}: \
+                 use Decoder::at for its one-wavelength queries"
+            ));
+        }
+        let Some((kernel, st)) = self.kernel_input() else {
+            return Err("no kernel".into());
+        };
+        let mut basis = [0.0f64; SMALL_TERMS];
+        self.basis_at(wavelength, &mut basis);
+        if basis[0].is_nan() {
+            return Err(format!("the wavelength {wavelength} nm is not finite"));
+        }
+        let collapsed = kernel
+            .collapse_all(st.res, &basis[..st.res.spectrum.terms()])
+            .ok_or_else(|| {
+                format!(
+                    "its {} records do not fit the one-wavelength table a baked view keeps",
+                    st.res.recs.len()
+                )
+            })?;
+        let widest = ShapeSteps::widest_log_step(kernel, st.res);
+        Ok(BakedInput {
+            basis,
+            collapsed: Box::new(collapsed),
+            sh_counts: kernel.sh_counts().collect(),
+            shapes: ShapeSteps::new(kernel, st.res, steps(widest)),
+        })
+    }
+
+    /// ρ with each record's SH part from `sh` (a baked view's grids: `sh(r0, count, ωo)` for
+    /// records r0..r0 + count at ωo in the records' frame) and the lobes from `input`
+    /// (shapes blended ahead) ([`Evaluator::baked_input`]); the pairs the kernel hands back take the general
+    /// path, exactly.
+    #[inline(always)]
+    pub(crate) fn eval_baked(
+        &self,
+        input: &BakedInput,
+        sh: impl Fn(usize, usize, [f64; 3]) -> [f64; 2],
+        wi: [f32; 3],
+        wo: [f32; 3],
+    ) -> f32 {
+        match self.kernel_input() {
+            Some((kernel, st)) => {
+                kernel_baked::one_baked(kernel, st, wi, wo, &input.collapsed, &input.shapes, sh)
+                    .unwrap_or_else(|| {
+                        self.kernel_fallback(wi, wo, &input.basis[..self.res.spectrum.terms()])
+                    })
+            }
+            None => 0.0,
         }
     }
 

@@ -52,6 +52,23 @@ pub(crate) struct Collapsed {
     values: [f64; COLLAPSED_VALUES],
 }
 
+impl Collapsed {
+    /// Record r's lobe amplitudes (as [`collapse_amps`] gives them; none past the table).
+    #[inline(always)]
+    pub(crate) fn amps(&self, r: usize) -> &[f64; AMPS] {
+        self.values
+            .get(r * COLLAPSED_STRIDE..r * COLLAPSED_STRIDE + AMPS)
+            .and_then(|a| a.try_into().ok())
+            .unwrap_or(&NO_AMPS)
+    }
+
+    /// Record r's SH coefficients ã_j (as [`collapse_sh`] gives them; `p` of them).
+    pub(crate) fn sh(&self, r: usize, p: usize) -> &[f64] {
+        let at = r * COLLAPSED_STRIDE + AMPS;
+        self.values.get(at..at + p.min(SMALL_SH)).unwrap_or(&[])
+    }
+}
+
 /// A group's structure: the SH level to evaluate and up to four lobe operations.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Group {
@@ -59,13 +76,13 @@ pub(super) struct Group {
     /// False where the kernel does not apply (two cosine-power peaks so nearly opposite that
     /// their blended direction may vanish): such queries take the general path.
     pub(super) fast: bool,
-    ops: [Op; 2 * LINE_LOBES],
+    pub(super) ops: [Op; 2 * LINE_LOBES],
 }
 
 /// One lobe evaluation: at position `li`, either shared by the group's records (its shape
 /// blended) or record `slot`'s own.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Op {
+pub(super) enum Op {
     None,
     Shared { li: u8, kind: LobeKind },
     Own { slot: u8, li: u8, kind: LobeKind },
@@ -75,9 +92,9 @@ enum Op {
 /// outgoing vector in the records' frame and the two records' weights.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Query<const N: usize> {
-    wi: [Lanes<N>; 3],
+    pub(super) wi: [Lanes<N>; 3],
     pub(super) wo: [Lanes<N>; 3],
-    w: [Lanes<N>; 2],
+    pub(super) w: [Lanes<N>; 2],
 }
 
 impl Kernel {
@@ -182,6 +199,11 @@ impl Kernel {
         })
     }
 
+    /// Each record's SH function count ((level + 1)²), in record order.
+    pub(crate) fn sh_counts(&self) -> impl Iterator<Item = usize> + '_ {
+        self.recs.iter().map(|k| k.p as usize)
+    }
+
     /// Heap bytes held.
     pub(crate) fn heap_bytes(&self) -> usize {
         self.recs.capacity() * std::mem::size_of::<KernelRecord>()
@@ -192,7 +214,7 @@ impl Kernel {
     /// them; Err(Some(0)) for a pair below the horizon or not normalisable, Err(None) for a
     /// group the kernel leaves to the general path.
     #[inline(always)]
-    fn placed(
+    pub(super) fn placed(
         &self,
         axis: &Axis,
         wi: [f32; 3],

@@ -22,8 +22,10 @@
 //! does not take (a group whose blended peak may vanish) it hands back to its caller, which
 //! answers them on the general path. The θ bracket (`Axis::neighbours`), the θ clamp
 //! (`clamp_incidence`) and the shared shapes' blend (`model::lobes::blend_shape`) are the
-//! ones every route uses.
+//! ones every route uses. A baked view (`crate::decode::baked`) runs the same groups with each
+//! record's SH part read from its grids, its shapes blended ahead (`baked.rs`).
 
+pub(crate) mod baked;
 mod formulas;
 pub(crate) mod groups;
 pub(crate) mod lanes_batch;
