@@ -10,7 +10,7 @@ use crate::encode::fit::{fit_incidence, CriticalAngle, FitContext, PeakMode};
 use crate::encode::fit::{JointOptions, LobeFamily};
 use crate::encode::metrics::{rel, stored_error, ErrorSums};
 use crate::encode::nearest::nearest_k_fold;
-use crate::encode::options::{metadata_json, sample_positions};
+use crate::encode::options::{metadata_json, sample_positions, NearestFigure};
 pub use crate::encode::options::{
     EncodeOptions, Encoded, MetaLevel, ModelChoice, DEFAULT_MAX_ERROR,
 };
@@ -166,7 +166,22 @@ fn encode_auto(
         held_out: false,
         ..opts.clone()
     };
-    let classic = encode_records_with_progress(set, &classic_opts, progress)?;
+    // The records fitted to the budget, their metadata written once it is known whether it
+    // records the nearest sample's figure (only when they are kept as a measured input's
+    // candidate).
+    let classic = encode_records_with_progress(
+        set,
+        &EncodeOptions {
+            meta: MetaLevel::None,
+            ..classic_opts.clone()
+        },
+        progress,
+    )?;
+    let classic_meta = |mut e: Encoded, nearest: Option<NearestFigure>| {
+        let o = families_tried(&classic_opts, set);
+        e.material.metadata = records_metadata(&o, e.rel_error, nearest);
+        e
+    };
     let eps = crate::encode::metrics::log_epsilon(set);
     let measured = !opts.budget_given
         && opts.peak == PeakMode::Joint
@@ -177,7 +192,7 @@ fn encode_auto(
     if !measured {
         // The budget is not out of reach: an unmet incidence is the lobe families' limit,
         // reported as before.
-        return Ok(classic);
+        return Ok(classic_meta(classic, None));
     }
     // Candidates, each judged on the factor model's inner folds (2-fold, its shuffle), by
     // log² + max(rel − 1, 0)²: the log error weighs every value, while on sparse peaky data rel
@@ -208,7 +223,7 @@ fn encode_auto(
     // for values far below the budget.
     let budget = opts.max_error.unwrap_or(DEFAULT_MAX_ERROR);
     if classic_cv.rel() <= RECORDS_HOLD_FACTOR * budget {
-        let mut classic = classic;
+        let mut classic = classic_meta(classic, None);
         classic.notes.push(format!(
             "the input looks measured, but the records fitted to the budget predict held-out \
              samples within {RECORDS_HOLD_FACTOR}× of it ({inner}-fold rel {:.4}): kept them",
@@ -216,6 +231,19 @@ fn encode_auto(
         ));
         return Ok(classic);
     }
+    // The floor (issue 41): the nearest sample the encode was given, on the same folds. A
+    // candidate whose log error is above it does worse than handing out the measurement, so it
+    // is passed over while another candidate beats the floor (Cornell acryl_blue without its 80°
+    // incidence: the records score rel 0.999, log 1.03 against the nearest sample's log 0.78,
+    // while the factor model's log is 0.27; kept, they handed the 80° incidence 70°'s peak).
+    // Every candidate's metadata records it (`info` shows it beside the kept model's own
+    // held-out figures, the `xval` chunk).
+    let nearest = pooled(&nearest_k_fold(set, inner, INNER_FOLD_SALT, eps));
+    let figure = Some(NearestFigure {
+        folds: inner,
+        rel: nearest.rel(),
+        log: nearest.log(),
+    });
     let held_opts = EncodeOptions {
         held_out: true,
         ..opts.clone()
@@ -227,18 +255,22 @@ fn encode_auto(
         set.is_isotropic() && opts.format_minor >= crate::format::VERSION_MINOR_FACTOR;
     let (held, shared) = rayon::join(
         || -> Result<(Encoded, ErrorSums)> {
-            let held = encode_records(set, &held_opts)?;
+            let held = encode_records_noting(set, &held_opts, None, figure)?;
             Ok((held, cv(&held_opts)?))
         },
         || {
             factor_candidate
-                .then(|| crate::encode::factor_model::encode_shared(set, opts))
+                .then(|| crate::encode::factor_model::encode_shared_noting(set, opts, figure))
                 .transpose()
         },
     );
     let (held, held_cv) = held?;
     let mut candidates: Vec<(&str, Encoded, ErrorSums)> = vec![
-        ("records fitted to the budget", classic, classic_cv),
+        (
+            "records fitted to the budget",
+            classic_meta(classic, figure),
+            classic_cv,
+        ),
         (
             "records held to the budget between the samples",
             held,
@@ -250,12 +282,6 @@ fn encode_auto(
             candidates.push(("the factor model shared by every incidence", shared, h));
         }
     }
-    // The floor (issue 41): the nearest sample the encode was given, on the same folds. A
-    // candidate whose log error is above it does worse than handing out the measurement, so it
-    // is passed over while another candidate beats the floor (Cornell acryl_blue without its 80°
-    // incidence: the records score rel 0.999, log 1.03 against the nearest sample's log 0.78,
-    // while the factor model's log is 0.27; kept, they handed the 80° incidence 70°'s peak).
-    let nearest = pooled(&nearest_k_fold(set, inner, INNER_FOLD_SALT, eps));
     let beats_floor = |s: &ErrorSums| s.log() <= nearest.log();
     let any_beats = candidates.iter().any(|c| beats_floor(&c.2));
     let best = (0..candidates.len())
@@ -281,28 +307,7 @@ fn encode_auto(
             " (no model beats it in log error: the measurement is too sparse or noisy for one)"
         }
     ));
-    // `info` shows it beside the kept model's own held-out figures (the `xval` chunk): the
-    // nearest sample's pooled (rel, log) on the auto choice's folds, three significant digits.
-    if let Some(meta) = &chosen.material.metadata {
-        if let Ok(serde_json::Value::Object(mut v)) = serde_json::from_str(meta) {
-            v.insert(
-                format!("nearest_sample_{inner}fold"),
-                serde_json::json!([round3(nearest.rel()), round3(nearest.log())]),
-            );
-            chosen.material.metadata = Some(serde_json::Value::Object(v).to_string());
-        }
-    }
     Ok(chosen)
-}
-
-/// `v` to three significant digits (a figure for people; NaN and infinities as 0).
-fn round3(v: f64) -> f64 {
-    let r: f64 = format!("{v:.2e}").parse().unwrap_or(0.0);
-    if r.is_finite() {
-        r
-    } else {
-        0.0
-    }
 }
 
 /// The sums of every incidence together.
@@ -381,19 +386,53 @@ pub fn lobe_families(opts: &EncodeOptions, set: &SampleSet) -> Vec<LobeFamily> {
     families
 }
 
+/// `opts` with the lobe families the fit tries on `set` ([`lobe_families`]): what the records'
+/// metadata records.
+fn families_tried(opts: &EncodeOptions, set: &SampleSet) -> EncodeOptions {
+    EncodeOptions {
+        lobes: lobe_families(opts, set),
+        ..opts.clone()
+    }
+}
+
+/// The records' metadata (`opts` from [`families_tried`]), recording `nearest` when given.
+fn records_metadata(
+    opts: &EncodeOptions,
+    rel_error: f64,
+    nearest: Option<NearestFigure>,
+) -> Option<String> {
+    match opts.meta {
+        MetaLevel::None => None,
+        level => Some(metadata_json(
+            opts,
+            rel_error,
+            level == MetaLevel::Short,
+            nearest,
+        )),
+    }
+}
+
 /// Per-incidence records (`ModelChoice::Records`), reporting progress as incidences finish.
 pub fn encode_records_with_progress(
     set: &SampleSet,
     opts: &EncodeOptions,
     progress: Option<Progress>,
 ) -> Result<Encoded> {
+    encode_records_noting(set, opts, progress, None)
+}
+
+/// [`encode_records_with_progress`], its metadata recording `nearest` when given
+/// (`--model auto`).
+fn encode_records_noting(
+    set: &SampleSet,
+    opts: &EncodeOptions,
+    progress: Option<Progress>,
+    nearest: Option<NearestFigure>,
+) -> Result<Encoded> {
     set.validate()
         .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
     // The families actually tried, which the metadata records.
-    let opts = &EncodeOptions {
-        lobes: lobe_families(opts, set),
-        ..opts.clone()
-    };
+    let opts = &families_tried(opts, set);
     let (terms, table) = terms_and_table(opts, set);
     check_terms(opts, set, terms)?;
     let mut spectral = spectral_space(opts.basis, terms, &set.wavelengths);
@@ -532,10 +571,7 @@ pub fn encode_records_with_progress(
             t.values.truncate(used * t.nodes.len());
         }
     }
-    let metadata = match opts.meta {
-        MetaLevel::None => None,
-        level => Some(metadata_json(opts, rel_error, level == MetaLevel::Short)),
-    };
+    let metadata = records_metadata(opts, rel_error, nearest);
     let mut material = Material {
         version_minor: opts.format_minor.min(crate::format::VERSION_MINOR),
         spectral,

@@ -6,7 +6,7 @@
 use crate::encode::factor_fit::{fit_factor, score, FactorOptions};
 use crate::encode::metrics::{log_epsilon, rel, stored_error, ErrorSums};
 use crate::encode::options::{
-    metadata_envelope, sample_positions, EncodeOptions, Encoded, MetaLevel,
+    metadata_envelope, sample_positions, EncodeOptions, Encoded, MetaLevel, NearestFigure,
 };
 use crate::encode::samples::SampleSet;
 use crate::error::{Error, Result};
@@ -38,6 +38,15 @@ fn empty_record(theta_i: f64, phi_i: f64, rel_error: f32) -> IncidentRecord {
 
 /// Fits the factor model to `set` and writes it with empty records.
 pub fn encode_shared(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
+    encode_shared_noting(set, opts, None)
+}
+
+/// [`encode_shared`], its metadata recording `nearest` when given (`--model auto`).
+pub(crate) fn encode_shared_noting(
+    set: &SampleSet,
+    opts: &EncodeOptions,
+    nearest: Option<NearestFigure>,
+) -> Result<Encoded> {
     set.validate()
         .map_err(|e| Error::Parameter(format!("invalid samples: {e}")))?;
     if opts.format_minor < VERSION_MINOR_FACTOR {
@@ -100,6 +109,7 @@ pub fn encode_shared(set: &SampleSet, opts: &EncodeOptions) -> Result<Encoded> {
                 opts,
                 rel_error,
                 level == MetaLevel::Short,
+                nearest,
             )),
         },
         sample_positions: (opts.sample_positions

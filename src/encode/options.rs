@@ -225,7 +225,12 @@ fn metadata_options(opts: &EncodeOptions) -> serde_json::Map<String, serde_json:
 
 /// The `meta` text: compact JSON. `short` keeps only the options that differ from the
 /// encoder's defaults (and no input names).
-pub(crate) fn metadata_json(opts: &EncodeOptions, rel_error: f64, short: bool) -> String {
+pub(crate) fn metadata_json(
+    opts: &EncodeOptions,
+    rel_error: f64,
+    short: bool,
+    nearest: Option<NearestFigure>,
+) -> String {
     let mut options = metadata_options(opts);
     if short {
         // What the defaults of this encoder would write: dropped (the encoder and its version
@@ -236,16 +241,28 @@ pub(crate) fn metadata_json(opts: &EncodeOptions, rel_error: f64, short: bool) -
         });
         options.retain(|k, v| defaults.get(k) != Some(v));
     }
-    metadata_envelope(options, opts, rel_error, short)
+    metadata_envelope(options, opts, rel_error, short, nearest)
+}
+
+/// The nearest sample's pooled held-out error on `--model auto`'s inner folds, the floor its
+/// candidates were held to: `meta` records it beside the kept model (`info` shows it by the
+/// model's own held-out figures).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct NearestFigure {
+    /// The folds (k of k-fold).
+    pub folds: usize,
+    pub rel: f64,
+    pub log: f64,
 }
 
 /// The metadata around a model's own `options`: encoder, inputs (not when `short`),
-/// provenance, pooled error.
+/// provenance, pooled error, and the nearest sample's figure when `--model auto` measured one.
 pub(crate) fn metadata_envelope(
     options: serde_json::Map<String, serde_json::Value>,
     opts: &EncodeOptions,
     rel_error: f64,
     short: bool,
+    nearest: Option<NearestFigure>,
 ) -> String {
     use serde_json::{json, Map, Value};
     let mut v = Map::new();
@@ -275,7 +292,24 @@ pub(crate) fn metadata_envelope(
             Value::Null
         },
     );
+    // Three significant digits, as a figure for people.
+    if let Some(n) = nearest {
+        v.insert(
+            format!("nearest_sample_{}fold", n.folds),
+            json!([round3(n.rel), round3(n.log)]),
+        );
+    }
     Value::Object(v).to_string()
+}
+
+/// `v` to three significant digits (a figure for people; NaN and infinities as 0).
+fn round3(v: f64) -> f64 {
+    let r: f64 = format!("{v:.2e}").parse().unwrap_or(0.0);
+    if r.is_finite() {
+        r
+    } else {
+        0.0
+    }
 }
 
 /// Describes each incidence's outgoing directions, as a grid where they form one exactly

@@ -98,14 +98,7 @@ pub(crate) fn shared_shape(res: &Resident, inc: &Incident, li: usize) -> LobeSha
     let recs = &inc.blend.rec[..inc.blend.n];
     let ws = &inc.blend.w[..inc.blend.n];
     let kind = res.lobe(&res.recs[recs[0]], li).kind;
-    let par = |i: usize| res.lobe(&res.recs[recs[i]], li).par as usize;
-    let p = blend_shape(
-        kind,
-        ws,
-        |i, j| res.params[par(i) + j] as f64,
-        |i, j| res.ln_params[par(i) + j],
-        || blended_axis(res, recs, ws, li),
-    );
+    let p = blended_params(res, recs, ws, li);
     LobeShape {
         peak: if shape_rule(kind).peak {
             blended_peak(res, recs, ws, (inc.theta, inc.phi))
@@ -114,6 +107,23 @@ pub(crate) fn shared_shape(res: &Resident, inc: &Incident, li: usize) -> LobeSha
         },
         p,
     }
+}
+
+/// The parameters of the lobe at position `li` blended from the records `recs` with weights
+/// `ws` (the lobe shared by all of them, or one record's own with weight 1), by its kind's rule
+/// ([`blend_shape`]; the axis by [`blended_axis`]): what evaluation and the sampler's proposal
+/// both blend.
+#[inline(always)]
+pub(crate) fn blended_params(res: &Resident, recs: &[usize], ws: &[f64], li: usize) -> [f64; 6] {
+    let kind = res.lobe(&res.recs[recs[0]], li).kind;
+    let par = |i: usize| res.lobe(&res.recs[recs[i]], li).par as usize;
+    blend_shape(
+        kind,
+        ws,
+        |i, j| res.params[par(i) + j] as f64,
+        |i, j| res.ln_params[par(i) + j],
+        || blended_axis(res, recs, ws, li),
+    )
 }
 
 /// The axis angle ψ (degrees) of the kind-5 lobe at position `li` blended from the records

@@ -98,6 +98,36 @@ fn coefficients<const NSH: usize>(
         }
         *ck = acc;
     }
+    each_lobe(res, inc, shapes, wo, |recs, ws, li, lobe| match lobe {
+        LobeAt::Gaussian(peak) => add_gaussian(res, c, recs, ws, li, wo, peak),
+        LobeAt::Values(v) => add_amplitudes(res, c, recs, ws, li, v),
+    });
+}
+
+/// A lobe at the outgoing direction, as [`each_lobe`] hands it on.
+enum LobeAt<'a> {
+    /// An angle-Gaussian lobe with this peak: its widths are blended per term, so the caller
+    /// evaluates it against its amplitudes.
+    Gaussian([f64; 3]),
+    /// Any other lobe's values, evaluated once for the records it is handed on with.
+    Values(&'a [f64]),
+}
+
+/// Every lobe position of the records `inc` blends, at the unit outgoing vector `wo`: a
+/// position they share once, with its blended shape (from `shapes` when given) and every
+/// record's weight; any other position once per record that has a lobe there, with that
+/// record's own shape and weight alone. `f` receives the records, their weights, the position
+/// and the lobe, in that order (what both results sum in).
+#[inline(always)]
+fn each_lobe(
+    res: &Resident,
+    inc: &Incident,
+    shapes: Option<&Shapes>,
+    wo: [f64; 3],
+    mut f: impl FnMut(&[usize], &[f64], usize, LobeAt<'_>),
+) {
+    let recs = &inc.blend.rec[..inc.blend.n];
+    let ws = &inc.blend.w[..inc.blend.n];
     // The microfacet geometry depends on the directions alone: computed at most once.
     let mut geometry = None;
     for li in 0..inc.nlobes {
@@ -105,27 +135,28 @@ fn coefficients<const NSH: usize>(
             let kind = res.lobe(&res.recs[recs[0]], li).kind;
             let shape = shape_of(res, inc, shapes, li);
             match kind {
-                LobeKind::AngleGaussian => add_gaussian(res, c, recs, ws, li, wo, shape.peak),
+                LobeKind::AngleGaussian => f(recs, ws, li, LobeAt::Gaussian(shape.peak)),
                 _ => {
                     let (v, nv) =
                         lobe_values(kind, &shape.p, shape.peak, inc.wi, wo, &mut geometry);
-                    add_amplitudes(res, c, recs, ws, li, &v[..nv]);
+                    f(recs, ws, li, LobeAt::Values(&v[..nv]));
                 }
             }
         } else {
-            for (&r, &w) in recs.iter().zip(ws) {
-                let rec = &res.recs[r];
+            for (r, w) in recs.iter().zip(ws) {
+                let rec = &res.recs[*r];
                 if li >= rec.nlobes as usize {
                     continue;
                 }
+                let (r, w) = (std::slice::from_ref(r), std::slice::from_ref(w));
                 let kind = res.lobe(rec, li).kind;
                 if kind == LobeKind::AngleGaussian {
-                    add_gaussian(res, c, &[r], &[w], li, wo, rec.peak);
+                    f(r, w, li, LobeAt::Gaussian(rec.peak));
                     continue;
                 }
                 let shape = own_shape(res, rec, li);
                 let (v, nv) = lobe_values(kind, &shape.p, shape.peak, inc.wi, wo, &mut geometry);
-                add_amplitudes(res, c, &[r], &[w], li, &v[..nv]);
+                f(r, w, li, LobeAt::Values(&v[..nv]));
             }
         }
     }
@@ -262,36 +293,12 @@ fn value_at_sized<const NSH: usize>(
         add_gaussian(res, c, recs, ws, li, wo, peak);
         c.iter().zip(b).map(|(c, b)| c * b).sum::<f64>()
     };
-    let mut geometry = None;
-    for li in 0..inc.nlobes {
-        if inc.shared & (1 << li) != 0 {
-            let kind = res.lobe(&res.recs[recs[0]], li).kind;
-            let shape = shape_of(res, inc, shapes, li);
-            acc += match kind {
-                LobeKind::AngleGaussian => gaussian(recs, ws, li, shape.peak),
-                _ => {
-                    let (v, nv) =
-                        lobe_values(kind, &shape.p, shape.peak, inc.wi, wo, &mut geometry);
-                    amplitudes_at(res, recs, ws, li, &v[..nv], b)
-                }
-            };
-        } else {
-            for (&r, &w) in recs.iter().zip(ws) {
-                let rec = &res.recs[r];
-                if li >= rec.nlobes as usize {
-                    continue;
-                }
-                let kind = res.lobe(rec, li).kind;
-                if kind == LobeKind::AngleGaussian {
-                    acc += gaussian(&[r], &[w], li, rec.peak);
-                    continue;
-                }
-                let shape = own_shape(res, rec, li);
-                let (v, nv) = lobe_values(kind, &shape.p, shape.peak, inc.wi, wo, &mut geometry);
-                acc += amplitudes_at(res, &[r], &[w], li, &v[..nv], b);
-            }
+    each_lobe(res, inc, shapes, wo, |recs, ws, li, lobe| {
+        acc += match lobe {
+            LobeAt::Gaussian(peak) => gaussian(recs, ws, li, peak),
+            LobeAt::Values(v) => amplitudes_at(res, recs, ws, li, v, b),
         }
-    }
+    });
     acc
 }
 

@@ -16,6 +16,26 @@ use crate::model::spectral::{SpectralSpace, SpectrumEvaluator};
 use crate::model::warped::WarpedModel;
 use crate::model::Precision;
 
+/// `$ty { … }` with the fields a [`Rec`] keeps exactly as its [`IncidentRecord`] has them
+/// (incidence, peak angles, error, critical angle, precision) copied from `$from`, plus the
+/// fields given: the one list of them, for both directions ([`Resident::new`],
+/// [`Resident::material`]).
+macro_rules! with_kept_fields {
+    ($from:expr => $ty:ident { $($rest:tt)* }) => {{
+        let from = $from;
+        $ty {
+            theta_i: from.theta_i,
+            phi_i: from.phi_i,
+            theta_p: from.theta_p,
+            phi_p: from.phi_p,
+            rel_error: from.rel_error,
+            critical_angle: from.critical_angle,
+            precision: from.precision,
+            $($rest)*
+        }
+    }};
+}
+
 /// One record: where its values are, its sizes, and the fields a [`Material`] needs back.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Rec {
@@ -200,22 +220,15 @@ impl Resident {
                 params.extend_from_slice(&l.params);
                 ln_params.extend(l.params.iter().map(|&p| (p as f64).ln()));
             }
-            recs.push(Rec {
+            recs.push(with_kept_fields!(r => Rec {
                 peak: dir_from_deg(r.theta_p as f64, r.phi_p as f64),
-                theta_i: r.theta_i,
-                phi_i: r.phi_i,
-                theta_p: r.theta_p,
-                phi_p: r.phi_p,
-                rel_error: r.rel_error,
-                critical_angle: r.critical_angle,
                 sh,
                 lobe0,
                 terms: r.terms as u16,
                 level: r.sh_level as u8,
                 nlobes: r.lobes.len() as u8,
-                precision: r.precision,
                 kinds,
-            });
+            }));
         }
         Resident {
             recs,
@@ -291,19 +304,12 @@ impl Resident {
                         }
                     })
                     .collect();
-                IncidentRecord {
+                with_kept_fields!(r => IncidentRecord {
                     terms: t,
                     sh_level: r.level as usize,
-                    precision: r.precision,
-                    theta_i: r.theta_i,
-                    phi_i: r.phi_i,
-                    theta_p: r.theta_p,
-                    phi_p: r.phi_p,
-                    rel_error: r.rel_error,
-                    critical_angle: r.critical_angle,
                     sh: self.vals[r.sh as usize..r.sh as usize + t * p].to_vec(),
                     lobes,
-                }
+                })
             })
             .collect();
         Material {

@@ -24,11 +24,11 @@
 pub(crate) mod proposal;
 pub(crate) mod sample;
 
-use crate::decode::records::blend::{blended_axis, blended_peak};
+use crate::decode::records::blend::{blended_params, blended_peak};
 use crate::decode::records::incidence::Records;
 use crate::decode::records::lattice::{unit, unit_above, QueryFrame};
 use crate::model::angles::{angle_between, dir_from_deg};
-use crate::model::lobes::{blend_shape, lobe_values, shape_rule, Proposal};
+use crate::model::lobes::{lobe_values, shape_rule, Proposal};
 use crate::model::material::{LobeKind, MAX_LOBES};
 use std::f64::consts::PI;
 
@@ -233,15 +233,8 @@ fn lobe_shape(
 ) -> Shape {
     let res = dec.res;
     let kind = res.lobe(&res.recs[recs[0]], li).kind;
-    // The shape as evaluation blends it (`model::lobes::blend_shape`, by the kind's rule).
-    let par = |i: usize| res.lobe(&res.recs[recs[i]], li).par as usize;
-    let p = blend_shape(
-        kind,
-        ws,
-        |i, j| res.params[par(i) + j] as f64,
-        |i, j| res.ln_params[par(i) + j],
-        || blended_axis(res, recs, ws, li),
-    );
+    // The shape as evaluation blends it.
+    let p = blended_params(res, recs, ws, li);
     match shape_rule(kind).proposal {
         Proposal::PeakVonMisesFisher => {
             let wsum: f64 = ws.iter().sum();
