@@ -6,7 +6,7 @@ Usage: python3 tools/check_bench_ratios.py [CRITERION_DIR]   (default target/cri
 Run the benchmarks first, briefly (as .ci/run does):
 
     cargo bench --bench decode -- --warm-up-time 0.3 --measurement-time 1.5 --noplot \\
-        '^eval_(phong9|ggx7|ptfe6)/(at|sbrdf|batch|raw_table)/(1|31)$'
+        '^eval_(phong9|ggx7|ptfe6)/(at|sbrdf|batch|raw_table|baked_1e-3)/(1|31)$'
     cargo bench --bench encode -- --noplot '^encode_90x1296x31/(defaults|paper_mode)'
 
 Each check divides the fastest sample's time of one benchmark by another's from the same run (a table
@@ -33,6 +33,8 @@ for m in MATERIALS:
         ("%s: at(λ).eval / table" % m, "eval_%s/at/1" % m, "eval_%s/raw_table/1" % m, 1.6),
         ("%s: eval at one wavelength / table" % m,
          "eval_%s/sbrdf/1" % m, "eval_%s/raw_table/1" % m, 2.1),
+        ("%s: baked view (τ = 1e-3) / table" % m,
+         "eval_%s/baked_1e-3/1" % m, "eval_%s/raw_table/1" % m, 1.15),
     ]
 for m in ["phong9", "ggx7"]:
     CHECKS += [
