@@ -10,7 +10,7 @@
 
 use super::batch;
 use super::factor::{factor_terms, value_with_factor, FactorTerms, WavelengthNodes, NO_FACTOR};
-use super::kernel::baked::{self as kernel_baked, ShapeSteps};
+use super::kernel::baked::{self as kernel_baked, BakedLobes};
 use super::kernel::groups::{self, Collapsed, Kernel, Stored};
 use super::kernel::lanes_batch::{self, Pairs};
 use super::kernel::width::Width;
@@ -97,8 +97,8 @@ pub(crate) struct BakedInput {
     pub(crate) collapsed: Box<Collapsed>,
     /// Each record's SH function count.
     pub(crate) sh_counts: Vec<usize>,
-    /// The groups' lobe shapes blended ahead.
-    pub(crate) shapes: ShapeSteps,
+    /// The groups' lobes resolved at the wavelength, their shapes blended ahead.
+    pub(crate) lobes: BakedLobes,
 }
 
 /// A validated material in its resident form plus what makes evaluation cheap.
@@ -359,12 +359,13 @@ impl Evaluator {
                     st.res.recs.len()
                 )
             })?;
-        let widest = ShapeSteps::widest_log_step(kernel, st.res);
+        let widest = BakedLobes::widest_log_step(kernel, st.res);
+        let lobes = BakedLobes::new(kernel, st.res, &collapsed, steps(widest));
         Ok(BakedInput {
             basis,
             collapsed: Box::new(collapsed),
             sh_counts: kernel.sh_counts().collect(),
-            shapes: ShapeSteps::new(kernel, st.res, steps(widest)),
+            lobes,
         })
     }
 
@@ -381,12 +382,10 @@ impl Evaluator {
         wo: [f32; 3],
     ) -> f32 {
         match self.kernel_input() {
-            Some((kernel, st)) => {
-                kernel_baked::one_baked(kernel, st, wi, wo, &input.collapsed, &input.shapes, sh)
-                    .unwrap_or_else(|| {
-                        self.kernel_fallback(wi, wo, &input.basis[..self.res.spectrum.terms()])
-                    })
-            }
+            Some((kernel, st)) => kernel_baked::one_baked(kernel, st, wi, wo, &input.lobes, sh)
+                .unwrap_or_else(|| {
+                    self.kernel_fallback(wi, wo, &input.basis[..self.res.spectrum.terms()])
+                }),
             None => 0.0,
         }
     }

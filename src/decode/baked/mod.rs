@@ -179,7 +179,7 @@ impl<'a> Baked<'a> {
         std::mem::size_of::<Self>()
             + self.grids.heap_bytes()
             + std::mem::size_of::<Collapsed>()
-            + self.input.shapes.heap_bytes()
+            + self.input.lobes.heap_bytes()
             + self.input.sh_counts.capacity() * std::mem::size_of::<usize>()
             + self.constants.capacity() * std::mem::size_of::<f64>()
     }

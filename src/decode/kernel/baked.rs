@@ -1,7 +1,7 @@
 //! The kernel's computation of one pair for a baked view (`crate::decode::baked`): the same
 //! groups, blend weights, θ clamp, peak blend and lobe formulas (`model::lobes`) as
 //! [`Kernel::one_collapsed`], with each record's SH part given (the view's grids), the shared
-//! shapes blended ahead ([`ShapeSteps`]: `blend_shape` at evenly spaced weights, read back
+//! shapes blended ahead ([`BakedLobes`]: `blend_shape` at evenly spaced weights, read back
 //! linearly) and θi read from a table ([`polar_table`]): what takes the blend's exponentials
 //! and the polar polynomial off the query's longest chain of dependent operations. Approximate
 //! by design: the baked view holds its values to the tolerance it was asked for.
@@ -9,50 +9,73 @@
 use super::formulas::{Frame, LINE_LOBES};
 use super::groups::{Collapsed, Kernel, Op, Stored};
 use crate::decode::records::resident::Resident;
-use crate::model::angles::{azimuth_rotation, rotate_about_z, unit_lanes};
+use crate::model::angles::{azimuth_rotation, dot, rotate_about_z, unit_lanes};
 use crate::model::lanes::{Lanes, Mask};
-use crate::model::lobes::{
-    blend_peak, blend_shape, cosine_power, shape_rule, MicrofacetGeometry, ParamBlend,
-};
+use crate::model::lobes::{blend_peak, blend_shape, shape_rule, MicrofacetGeometry, ParamBlend};
 use crate::model::material::LobeKind;
 
-/// Nodes of [`polar_table`]'s table over u in [0, 1].
+/// Nodes of [`polar_table`]'s table of asin over [0, 1/√2].
 const POLAR_NODES: usize = 1024;
 
-/// θ in degrees of an incident direction with horizontal length r and height z ≥ 0 (r + z >
-/// 0), from u = r/(r + z): θ = atan(u/(1 − u)) read from a table of 1025 nodes, linearly.
-/// Its second derivative is below 2.6 in u, so the table is within (1/1024)²/8·2.6 rad
-/// (2·10⁻⁵ degrees) of the exact angle: where a query falls between stored incidences moves by
-/// less than 10⁻⁵ of their spacing, with one division and no polynomial on the query's longest
-/// chain. (`model::angles::polar_deg` is the exact route's, to 1.4·10⁻⁸ rad.)
+/// θ in degrees of a unit incident direction with horizontal length r and height z ≥ 0 (r² +
+/// z² = 1), with no division: asin of the smaller of r and z read from a table of 1025 nodes
+/// over [0, 1/√2], linearly (θ = asin r where r ≤ z, else 90° − asin z). There asin'' ≤ 2.0,
+/// so the table is within (0.7072/1024)²/8·2.0 rad (7·10⁻⁶ degrees) of the exact angle: where
+/// a query falls between stored incidences moves by less than 10⁻⁵ of their spacing.
+/// (`model::angles::polar_deg` is the exact route's, to 1.4·10⁻⁸ rad.)
 #[inline(always)]
 fn polar_table(r: f64, z: f64) -> f64 {
     static TABLE: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
     let table = TABLE.get_or_init(|| {
         (0..=POLAR_NODES)
             .map(|i| {
-                let u = i as f64 / POLAR_NODES as f64;
-                u.atan2(1.0 - u).to_degrees()
+                (i as f64 / POLAR_NODES as f64 * SQRT_HALF)
+                    .asin()
+                    .to_degrees()
             })
             .collect()
     });
-    let x = r / (r + z) * POLAR_NODES as f64;
+    let small = r.min(z);
+    let x = small * (POLAR_NODES as f64 / SQRT_HALF);
     let i = (x as usize).min(POLAR_NODES - 1);
     let f = x - i as f64;
-    match table.get(i..i + 2) {
+    let a = match table.get(i..i + 2) {
         Some(v) => v[0] + f * (v[1] - v[0]),
         None => 0.0,
+    };
+    if r <= z {
+        a
+    } else {
+        90.0 - a
     }
 }
 
+const SQRT_HALF: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// `v` scaled to unit length, None where that fails (length 0 or not finite). Within 2⁻²⁰ of
+/// unit length (what a renderer passes) by one Newton step from 1, 1/|v| ≈ (3 − |v|²)/2: within
+/// 3/8·2⁻⁴⁰ (4·10⁻¹³) of it with no square root or division, the divider's work that a query
+/// waits on; elsewhere as `unit_lanes`.
+#[inline(always)]
+fn unit_quick(v: [f32; 3]) -> Option<[f64; 3]> {
+    let v = v.map(f64::from);
+    let n2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    let s = if (n2 - 1.0).abs() <= 1.0 / 1_048_576.0 {
+        1.5 - 0.5 * n2
+    } else {
+        let (u, ok) = unit_lanes(v);
+        return ok.then_some(u);
+    };
+    Some(v.map(|c| c * s))
+}
+
 /// The frame step of [`super::formulas::frame`] (`unit_lanes`, `azimuth_rotation`,
-/// `rotate_about_z`) with θ from [`polar_table`]; None where
-/// either vector is not normalisable or below the surface.
+/// `rotate_about_z`) with unit lengths from [`unit_quick`] and θ from [`polar_table`]; None
+/// where either vector is not normalisable or below the surface.
 #[inline(always)]
 fn frame32(wi: [f32; 3], wo: [f32; 3]) -> Option<Frame<1>> {
-    let (wi, ok_i) = unit_lanes(wi.map(f64::from));
-    let (wo, ok_o) = unit_lanes(wo.map(f64::from));
-    if !(ok_i && ok_o && wi[2] >= 0.0 && wo[2] >= 0.0) {
+    let (wi, wo) = (unit_quick(wi)?, unit_quick(wo)?);
+    if !(wi[2] >= 0.0 && wo[2] >= 0.0) {
         return None;
     }
     let (r, c, s) = azimuth_rotation(wi);
@@ -67,29 +90,46 @@ fn frame32(wi: [f32; 3], wo: [f32; 3]) -> Option<Frame<1>> {
     })
 }
 
-/// Every group's lobe shapes blended at weights t = k/K, k = 0..=K (`blend_shape`, in
-/// binary64, rounded to binary32 as it rounds them): a query between two steps reads the two
-/// and interpolates linearly. Against blending at the query's own t, a geometric parameter's
-/// relative error is at most (Δ ln p)²/8 for Δ ln p its change over one step.
+/// Every group's lobe operations resolved at bake time, in the order [`Kernel::value`] walks
+/// them: each one's kind, its shapes blended at weights t = k/K, k = 0..=K (`blend_shape`, in
+/// binary64, rounded to binary32 as it rounds them; a query between two steps reads the two and
+/// interpolates linearly), and its amplitudes at the view's wavelength per record slot, so that
+/// a query reads one short list with no operation to decode. Against blending at the query's own
+/// t, a geometric parameter's relative error is at most (Δ ln p)²/8 for Δ ln p its change over
+/// one step.
 #[derive(Debug, Clone)]
-pub(crate) struct ShapeSteps {
+pub(crate) struct BakedLobes {
     steps: usize,
-    /// [((g·OPS + op)·(K + 1) + k)·3 + j]: parameter j of group g's operation op at step k.
+    /// [(i·(K + 1) + k)·3 + j]: parameter j of operation i at step k.
     values: Vec<f32>,
+    /// The operations, group by group.
+    ops: Vec<BakedOp>,
+    /// Group g's operations: ops[starts[g]..starts[g + 1]].
+    starts: Vec<usize>,
 }
 
-/// Lobe operations a group holds.
-const OPS: usize = 2 * LINE_LOBES;
+/// One lobe operation of a group: ρ += w₀·(v·amps[0]) + w₁·(v·amps[1]) for the group's blend
+/// weights (w₀, w₁) ((1, 0) for a record alone) and v its variants (a cosine power's one value
+/// in slot 0).
+#[derive(Debug, Clone, Copy)]
+struct BakedOp {
+    kind: LobeKind,
+    /// The records whose peaks a cosine power blends: slots first..first + slots.
+    first: usize,
+    slots: usize,
+    amps: [[f64; 4]; 2],
+}
 
-impl ShapeSteps {
-    /// The shapes of `kernel`'s groups at `steps` + 1 weights (`steps` ≥ 1).
-    pub(crate) fn new(kernel: &Kernel, res: &Resident, steps: usize) -> Self {
+impl BakedLobes {
+    /// The lobes of `kernel`'s groups with shapes at `steps` + 1 weights (`steps` ≥ 1) and
+    /// amplitudes from `c` (the records collapsed at the view's wavelength).
+    pub(crate) fn new(kernel: &Kernel, res: &Resident, c: &Collapsed, steps: usize) -> Self {
         let steps = steps.max(1);
-        let mut values = vec![0.0f32; kernel.groups.len() * OPS * (steps + 1) * 3];
+        let (mut values, mut ops, mut starts) = (Vec::new(), Vec::new(), vec![0]);
         for (g, group) in kernel.groups.iter().enumerate() {
             let (r0, count) = kernel.records(g);
-            for (o, op) in group.ops.iter().enumerate() {
-                let Some((first, slots, li, kind)) = unpack(*op, count) else {
+            for op in group.ops {
+                let Some((first, slots, li, kind)) = unpack(op, count) else {
                     break;
                 };
                 let pars = params_of(kernel, r0, count, first, li);
@@ -103,14 +143,29 @@ impl ShapeSteps {
                         |i, j| res.ln_params[pars[i] + j],
                         || 0.0,
                     );
-                    let at = ((g * OPS + o) * (steps + 1) + k) * 3;
-                    for (v, p) in values[at..at + 3].iter_mut().zip(p) {
-                        *v = p as f32;
-                    }
+                    // The isotropic kinds' three parameters (b, c, a; a cosine power's n).
+                    values.extend(p[..3].iter().map(|&p| p as f32));
                 }
+                let mut amps = [[0.0; 4]; 2];
+                let n = if kind == LobeKind::CosinePower { 1 } else { 4 };
+                for (slot, to) in amps.iter_mut().enumerate().skip(first).take(slots) {
+                    to[..n].copy_from_slice(&c.amps(r0 + slot)[4 * li..4 * li + n]);
+                }
+                ops.push(BakedOp {
+                    kind,
+                    first,
+                    slots,
+                    amps,
+                });
             }
+            starts.push(ops.len());
         }
-        ShapeSteps { steps, values }
+        BakedLobes {
+            steps,
+            values,
+            ops,
+            starts,
+        }
     }
 
     /// The largest change of a geometric parameter's logarithm over one step, of any group:
@@ -145,15 +200,17 @@ impl ShapeSteps {
     /// Heap bytes held.
     pub(crate) fn heap_bytes(&self) -> usize {
         self.values.capacity() * std::mem::size_of::<f32>()
+            + self.ops.capacity() * std::mem::size_of::<BakedOp>()
+            + self.starts.capacity() * std::mem::size_of::<usize>()
     }
 
-    /// Group g's operation o's shape at weight t in [0, 1].
+    /// Operation i's shape at weight t in [0, 1].
     #[inline(always)]
-    fn at(&self, g: usize, o: usize, t: f64) -> [f64; 3] {
+    fn shape(&self, i: usize, t: f64) -> [f64; 3] {
         let x = t * self.steps as f64;
         let k = (x as usize).min(self.steps - 1);
         let f = x - k as f64;
-        let at = ((g * OPS + o) * (self.steps + 1) + k) * 3;
+        let at = (i * (self.steps + 1) + k) * 3;
         match self.values.get(at..at + 6) {
             Some(v) => std::array::from_fn(|j| v[j] as f64 + f * (v[j + 3] as f64 - v[j] as f64)),
             None => [0.0; 3],
@@ -182,7 +239,7 @@ fn params_of(kernel: &Kernel, r0: usize, count: usize, first: usize, li: usize) 
     ]
 }
 
-/// ρ for one pair at the wavelength `c` was collapsed at, clamped at 0, with `sh(r0, count,
+/// ρ for one pair at the wavelength `baked` was made at, clamped at 0, with `sh(r0, count,
 /// ωo)` the SH parts of records r0..r0 + count at ωo (in the records' frame); None for a pair
 /// the kernel leaves to the general path.
 #[inline(always)]
@@ -191,8 +248,7 @@ pub(crate) fn one_baked(
     st: Stored,
     wi: [f32; 3],
     wo: [f32; 3],
-    c: &Collapsed,
-    shapes: &ShapeSteps,
+    baked: &BakedLobes,
     sh: impl Fn(usize, usize, [f64; 3]) -> [f64; 2],
 ) -> Option<f32> {
     let Some(f) = frame32(wi, wo) else {
@@ -213,7 +269,7 @@ pub(crate) fn one_baked(
     } else {
         s[0]
     };
-    let lobes = lobes(kernel, st.res, g, (w, t), qi, qo, c, shapes);
+    let lobes = lobes(st.res, r0, g, (w, t), (qi, qo), baked);
     Some((sh_part + lobes).max(0.0) as f32)
 }
 
@@ -221,52 +277,57 @@ pub(crate) fn one_baked(
 /// weighted by its blend weight `w` (the second's t).
 ///
 /// This walk mirrors [`Kernel::value`]'s on purpose, in plain binary64 rather than its
-/// `Lanes<1>`: `Lanes::exp`/`ln` are branch-free for the batch's vectors and bit-identical
-/// across widths, which the exact route needs and this view does not; the C library's scalar
-/// `exp`/`ln` are faster here. Calling `Kernel::value` with the shapes supplied (tried) gave the
-/// same values within 10⁻⁷ and made the GGX view 84 → 163 ns a query (table 74 ns).
+/// `Lanes<1>`, over the operations resolved at bake time ([`BakedLobes`]): `Lanes::exp`/`ln`
+/// are branch-free for the batch's vectors and bit-identical across widths, which the exact
+/// route needs and this view does not. Calling `Kernel::value` with the shapes supplied (tried)
+/// gave the same values within 10⁻⁷ and made the GGX view 84 → 163 ns a query (table 74 ns).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn lobes(
-    kernel: &Kernel,
     res: &Resident,
+    r0: usize,
     g: usize,
     (w, t): ([f64; 2], f64),
-    wi: [f64; 3],
-    wo: [f64; 3],
-    c: &Collapsed,
-    shapes: &ShapeSteps,
+    (wi, wo): ([f64; 3], [f64; 3]),
+    baked: &BakedLobes,
 ) -> f64 {
-    let (r0, count) = kernel.records(g);
-    // A record's share of ρ: its blend weight (1 for a record alone).
-    let share = |slot: usize| if count == 2 { w[slot] } else { 1.0 };
+    let (Some(&start), Some(&end)) = (baked.starts.get(g), baked.starts.get(g + 1)) else {
+        return 0.0;
+    };
     let mut sum = 0.0;
     let mut geometry: Option<MicrofacetGeometry> = None;
-    for (o, op) in kernel.groups[g].ops.into_iter().enumerate() {
-        let Some((first, slots, li, kind)) = unpack(op, count) else {
+    for i in start..end {
+        let Some(op) = baked.ops.get(i) else {
             break;
         };
-        let p = shapes.at(g, o, t);
-        if kind == LobeKind::CosinePower {
-            let peak = if slots == 2 {
+        let p = baked.shape(i, t);
+        let v = if op.kind == LobeKind::CosinePower {
+            let peak = if op.slots == 2 {
                 let peaks = [res.recs[r0].peak, res.recs[r0 + 1].peak];
                 blend_peak([(w[0], peaks[0]), (w[1], peaks[1])]).0
             } else {
-                res.recs[r0 + first].peak
+                res.recs[r0 + op.first].peak
             };
-            let v = cosine_power(p[0], wo, peak);
-            for slot in first..first + slots {
-                sum += share(slot) * (v * c.amps(r0 + slot)[4 * li]);
-            }
-            continue;
-        }
-        let gm = *geometry.get_or_insert_with(|| MicrofacetGeometry::at(wi, wo));
-        let v = gm.variants_of(p[0], p[1], p[2], kind == LobeKind::MicrofacetSin2);
-        for slot in first..first + slots {
-            let a = &c.amps(r0 + slot)[4 * li..4 * li + 4];
-            let d = v[0] * a[0] + v[1] * a[1] + v[2] * a[2] + v[3] * a[3];
-            sum += share(slot) * d;
-        }
+            // `cosine_power`'s g^n (g capped at 1, 0 where g ≤ 0) with the quick power.
+            let g = dot(wo, peak).min(1.0);
+            [
+                if g > 0.0 { (p[0] * g.ln()).exp() } else { 0.0 },
+                0.0,
+                0.0,
+                0.0,
+            ]
+        } else {
+            let gm = match geometry {
+                Some(gm) => gm,
+                None => match MicrofacetGeometry::at_one_division(wi, wo) {
+                    Some(gm) => *geometry.insert(gm),
+                    None => continue, // wi + wo vanishes: every microfacet variant is 0
+                },
+            };
+            let x = gm.argument(op.kind == LobeKind::MicrofacetSin2);
+            gm.variants_with_d((-p[1] * (1.0 + p[0] * x).ln()).exp(), p[2])
+        };
+        let dot = |a: &[f64; 4]| v[0] * a[0] + v[1] * a[1] + v[2] * a[2] + v[3] * a[3];
+        sum += w[0] * dot(&op.amps[0]) + w[1] * dot(&op.amps[1]);
     }
     sum
 }
