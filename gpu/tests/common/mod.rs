@@ -144,6 +144,9 @@ pub fn query_words(q: &[Query]) -> Vec<u32> {
 pub struct Gpu {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
+    /// Whether the adapter runs on the CPU (lavapipe): tests that draw many random pairs draw
+    /// fewer there, where each query costs microseconds of a CI core.
+    pub on_cpu: bool,
 }
 
 impl Gpu {
@@ -169,6 +172,7 @@ impl Gpu {
                 )
             });
         eprintln!("using adapter: {:?}", adapter.get_info());
+        let on_cpu = adapter.get_info().device_type == wgpu::DeviceType::Cpu;
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("sbrdf tests"),
@@ -179,7 +183,11 @@ impl Gpu {
             trace: wgpu::Trace::Off,
         }))
         .expect("request_device");
-        Gpu { device, queue }
+        Gpu {
+            device,
+            queue,
+            on_cpu,
+        }
     }
 
     /// Compiles `module` and runs `entry` once per query; returns `per_query` f32 per query.
