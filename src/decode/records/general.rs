@@ -83,20 +83,39 @@ fn coefficients<const NSH: usize>(
 ) {
     let recs = &inc.blend.rec[..inc.blend.n];
     let ws = &inc.blend.w[..inc.blend.n];
-    let mut y = [0.0f64; NSH];
-    ShBasis::shared().eval_to_level(inc.level, wo, &mut y);
-    // Term by term, every record's share summed in a register and written once.
-    for (k, ck) in c.iter_mut().enumerate() {
-        let mut acc = 0.0;
-        for (&r, &w) in recs.iter().zip(ws) {
-            let rec = &res.recs[r];
-            if k < rec.terms as usize {
-                let p = sh_count(rec.level as usize);
-                let at = rec.sh as usize + k * p;
-                acc += w * dot_f32(&res.vals[at..at + p], &y[..p]);
+    if inc.level == 0 {
+        // Level 0 (records whose shape is all lobe, as the encoder writes Phong's and GGX's θ
+        // lines): one SH function, the constant Y_0^0 (what `eval_to_level` gives at level 0),
+        // so no SH evaluation and no dot product. A one-value `dot_f32` is ((0 + x) + 0) +
+        // (0 + 0), x itself but for −0 turned +0, a sign that `acc` (starting at +0, never −0)
+        // absorbs: the bits are the general loop's.
+        let y0 = ShBasis::shared().constant();
+        for (k, ck) in c.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for (&r, &w) in recs.iter().zip(ws) {
+                let rec = &res.recs[r];
+                if k < rec.terms as usize {
+                    acc += w * (res.vals[rec.sh as usize + k] as f64 * y0);
+                }
             }
+            *ck = acc;
         }
-        *ck = acc;
+    } else {
+        let mut y = [0.0f64; NSH];
+        ShBasis::shared().eval_to_level(inc.level, wo, &mut y);
+        // Term by term, every record's share summed in a register and written once.
+        for (k, ck) in c.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for (&r, &w) in recs.iter().zip(ws) {
+                let rec = &res.recs[r];
+                if k < rec.terms as usize {
+                    let p = sh_count(rec.level as usize);
+                    let at = rec.sh as usize + k * p;
+                    acc += w * dot_f32(&res.vals[at..at + p], &y[..p]);
+                }
+            }
+            *ck = acc;
+        }
     }
     each_lobe(res, inc, shapes, wo, |recs, ws, li, lobe| match lobe {
         LobeAt::Gaussian(peak) => add_gaussian(res, c, recs, ws, li, wo, peak),
