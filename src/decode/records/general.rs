@@ -117,10 +117,18 @@ fn coefficients<const NSH: usize>(
             *ck = acc;
         }
     }
-    each_lobe(res, inc, shapes, wo, |recs, ws, li, lobe| match lobe {
-        LobeAt::Gaussian(peak) => add_gaussian(res, c, recs, ws, li, wo, peak),
-        LobeAt::Values(v) => add_amplitudes(res, c, recs, ws, li, v),
-    });
+    // Inlined at both of each_lobe's calls: a call per lobe costs as much as its sums.
+    each_lobe(
+        res,
+        inc,
+        shapes,
+        wo,
+        #[inline(always)]
+        |recs, ws, li, lobe| match lobe {
+            LobeAt::Gaussian(peak) => add_gaussian(res, c, recs, ws, li, wo, peak),
+            LobeAt::Values(v) => add_amplitudes(res, c, recs, ws, li, v),
+        },
+    );
 }
 
 /// A lobe at the outgoing direction, as [`each_lobe`] hands it on.
