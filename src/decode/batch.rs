@@ -155,6 +155,9 @@ pub(crate) fn records(
     let basis = spectra.basis_or_empty();
     let mut key: Option<[u32; 3]> = None;
     let mut held = [LobeShape::default(); MAX_LOBES];
+    // The node sums' scratch, zeroed once per batch rather than once per pair (1 KiB): each
+    // pair writes the sums it reads.
+    let mut sums = [0.0f64; NODE_SUMS];
     let mut cached: Cached = None;
     for (i, row) in out[..n * m].chunks_exact_mut(m).enumerate() {
         let a = wi(i);
@@ -164,7 +167,7 @@ pub(crate) fn records(
             // the incident side costs more than it saves); a run of equal wi keeps it.
             if i + 1 >= n || wi(i + 1).map(f32::to_bits) != bits {
                 key = None;
-                single(res, places, a, wo(i), spectra, row);
+                single(res, places, a, wo(i), spectra, &mut sums, row);
                 continue;
             }
             key = Some(bits);
@@ -189,7 +192,9 @@ pub(crate) fn records(
             row[0] = one(res, inc, Some(&held), w, basis);
             continue;
         }
-        with_coefficients(res, inc, Some(&held), w, |c| finish(res, c, spectra, row));
+        with_coefficients(res, inc, Some(&held), w, |c| {
+            finish(res, c, spectra, &mut sums, row)
+        });
     }
 }
 
@@ -201,6 +206,7 @@ fn single(
     a: [f32; 3],
     b: [f32; 3],
     spectra: &Spectra,
+    sums: &mut [f64; NODE_SUMS],
     row: &mut [f32],
 ) {
     let (Some(a), Some(b)) = (unit_above(a), unit_above(b)) else {
@@ -215,7 +221,7 @@ fn single(
         return;
     }
     with_coefficients(res, &inc, None, q.in_frame(b), |c| {
-        finish(res, c, spectra, row)
+        finish(res, c, spectra, sums, row)
     });
 }
 
@@ -235,16 +241,22 @@ fn one(
     value_at(res, inc, shapes, wo, &basis[..inc.terms]).max(0.0) as f32
 }
 
-/// ρ(λ_j) = max(0, Σ_k c_k·B_k(λ_j)) from the batch's cells (node sums interpolated) or basis
-/// values, or, when there were too many to keep, as `eval` computes them.
+/// ρ(λ_j) = max(0, Σ_k c_k·B_k(λ_j)) from the batch's cells (node sums interpolated, `sums`
+/// their scratch) or basis values, or, when there were too many to keep, as `eval` computes
+/// them.
 #[inline(always)]
-fn finish(res: &Resident, c: &[f64], spectra: &Spectra, row: &mut [f32]) {
+fn finish(
+    res: &Resident,
+    c: &[f64],
+    spectra: &Spectra,
+    sums: &mut [f64; NODE_SUMS],
+    row: &mut [f32],
+) {
     let (cells, wavelengths, k) = (spectra.cells(), spectra.wavelengths, spectra.k);
     let basis = spectra.basis_or_empty();
     if !cells.is_empty() {
         // `eval`'s node sums, interpolated at the batch's cells.
-        let mut sums = [0.0f64; NODE_SUMS];
-        let sums = res.spectrum.node_sums(c, &mut sums);
+        let sums = res.spectrum.node_sums(c, sums);
         for ((o, &cell), &l) in row.iter_mut().zip(cells).zip(wavelengths) {
             *o = if (l as f64).is_finite() {
                 SpectrumEvaluator::from_node_sums(sums, cell).max(0.0) as f32

@@ -83,25 +83,52 @@ fn coefficients<const NSH: usize>(
 ) {
     let recs = &inc.blend.rec[..inc.blend.n];
     let ws = &inc.blend.w[..inc.blend.n];
-    let mut y = [0.0f64; NSH];
-    ShBasis::shared().eval_to_level(inc.level, wo, &mut y);
-    // Term by term, every record's share summed in a register and written once.
-    for (k, ck) in c.iter_mut().enumerate() {
-        let mut acc = 0.0;
-        for (&r, &w) in recs.iter().zip(ws) {
-            let rec = &res.recs[r];
-            if k < rec.terms as usize {
-                let p = sh_count(rec.level as usize);
-                let at = rec.sh as usize + k * p;
-                acc += w * dot_f32(&res.vals[at..at + p], &y[..p]);
+    if inc.level == 0 {
+        // Level 0 (records whose shape is all lobe, as the encoder writes Phong's and GGX's θ
+        // lines): one SH function, the constant Y_0^0 (what `eval_to_level` gives at level 0),
+        // so no SH evaluation and no dot product. A one-value `dot_f32` is ((0 + x) + 0) +
+        // (0 + 0), x itself but for −0 turned +0, a sign that `acc` (starting at +0, never −0)
+        // absorbs: the bits are the general loop's.
+        let y0 = ShBasis::shared().constant();
+        for (k, ck) in c.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for (&r, &w) in recs.iter().zip(ws) {
+                let rec = &res.recs[r];
+                if k < rec.terms as usize {
+                    acc += w * (res.vals[rec.sh as usize + k] as f64 * y0);
+                }
             }
+            *ck = acc;
         }
-        *ck = acc;
+    } else {
+        let mut y = [0.0f64; NSH];
+        ShBasis::shared().eval_to_level(inc.level, wo, &mut y);
+        // Term by term, every record's share summed in a register and written once.
+        for (k, ck) in c.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for (&r, &w) in recs.iter().zip(ws) {
+                let rec = &res.recs[r];
+                if k < rec.terms as usize {
+                    let p = sh_count(rec.level as usize);
+                    let at = rec.sh as usize + k * p;
+                    acc += w * dot_f32(&res.vals[at..at + p], &y[..p]);
+                }
+            }
+            *ck = acc;
+        }
     }
-    each_lobe(res, inc, shapes, wo, |recs, ws, li, lobe| match lobe {
-        LobeAt::Gaussian(peak) => add_gaussian(res, c, recs, ws, li, wo, peak),
-        LobeAt::Values(v) => add_amplitudes(res, c, recs, ws, li, v),
-    });
+    // Inlined at both of each_lobe's calls: a call per lobe costs as much as its sums.
+    each_lobe(
+        res,
+        inc,
+        shapes,
+        wo,
+        #[inline(always)]
+        |recs, ws, li, lobe| match lobe {
+            LobeAt::Gaussian(peak) => add_gaussian(res, c, recs, ws, li, wo, peak),
+            LobeAt::Values(v) => add_amplitudes(res, c, recs, ws, li, v),
+        },
+    );
 }
 
 /// A lobe at the outgoing direction, as [`each_lobe`] hands it on.
@@ -206,6 +233,70 @@ fn add_gaussian(
 /// each c\[k\] is summed in a register and written once.
 #[inline(always)]
 fn add_amplitudes(res: &Resident, c: &mut [f64], recs: &[usize], ws: &[f64], li: usize, v: &[f64]) {
+    // One record or two neighbours, one value (cosine power) or four (microfacet): the usual
+    // cases with their loops' bounds known, so that the compiler unrolls them (the same
+    // operations in the same order).
+    match (recs.len(), v.len()) {
+        (1, 1) => add_amplitudes_n::<1, 1>(res, c, recs, ws, li, v),
+        (1, 4) => add_amplitudes_n::<1, 4>(res, c, recs, ws, li, v),
+        (2, 1) => add_amplitudes_n::<2, 1>(res, c, recs, ws, li, v),
+        (2, 4) => add_amplitudes_n::<2, 4>(res, c, recs, ws, li, v),
+        _ => add_amplitudes_any(res, c, recs, ws, li, v),
+    }
+}
+
+/// [`add_amplitudes`] for N records and NV values.
+#[inline(always)]
+fn add_amplitudes_n<const N: usize, const NV: usize>(
+    res: &Resident,
+    c: &mut [f64],
+    recs: &[usize],
+    ws: &[f64],
+    li: usize,
+    v: &[f64],
+) {
+    let (Some(recs), Some(ws), Some(v)) = (
+        recs.first_chunk::<N>(),
+        ws.first_chunk::<N>(),
+        v.first_chunk::<NV>(),
+    ) else {
+        return;
+    };
+    // Per record: w·v_j and its amplitudes (NV rows of its terms).
+    let mut scaled = [[0.0f64; NV]; N];
+    let mut amps: [&[f32]; N] = [&[]; N];
+    for i in 0..N {
+        let rec = &res.recs[recs[i]];
+        let start = res.lobe(rec, li).amp as usize;
+        amps[i] = &res.vals[start..start + NV * rec.terms as usize];
+        for j in 0..NV {
+            scaled[i][j] = ws[i] * v[j];
+        }
+    }
+    for (k, ck) in c.iter_mut().enumerate() {
+        let mut acc = 0.0;
+        for i in 0..N {
+            let t = amps[i].len() / NV;
+            if k < t {
+                for j in 0..NV {
+                    acc += scaled[i][j] * amps[i][j * t + k] as f64;
+                }
+            }
+        }
+        *ck += acc;
+    }
+}
+
+/// [`add_amplitudes`] for any number of records and values.
+#[inline(always)]
+fn add_amplitudes_any(
+    res: &Resident,
+    c: &mut [f64],
+    recs: &[usize],
+    ws: &[f64],
+    li: usize,
+    v: &[f64],
+) {
     let nv = v.len();
     // Per record: w·v_j, where its amplitudes start, and its terms.
     let mut scaled = [[0.0f64; 4]; 4];
