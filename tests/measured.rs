@@ -58,12 +58,23 @@ struct Stated {
     bytes: f64,
 }
 
-fn cornell(name: &str, stated: Stated) {
-    // Every incidence left out in turn (issue 41): none may be predicted with more light than
-    // it holds, rel ≤ 1.0 (what a prediction of zero scores).
-    let r = run(&format!("cornell/{name}.astm"), &[], false);
-    for i in &r.incidences {
-        let s = i.left_out.expect("every incidence left out");
+/// `leave_out`: the incidences left out in turn (empty: every one). None may be predicted with
+/// more light than it holds, rel ≤ 1.0 (what a prediction of zero scores; issue 41).
+fn cornell(name: &str, leave_out: &[f64], stated: Stated) {
+    let r = run(&format!("cornell/{name}.astm"), leave_out, false);
+    let left: Vec<_> = r
+        .incidences
+        .iter()
+        .filter(|i| i.left_out.is_some())
+        .collect();
+    let asked = if leave_out.is_empty() {
+        r.incidences.len()
+    } else {
+        leave_out.len()
+    };
+    assert_eq!(left.len(), asked, "{name}: incidences left out");
+    for i in left {
+        let s = i.left_out.expect("left out");
         eprintln!(
             "{name}: {}° left out: log {:.3} rel {:.3}",
             i.theta_i,
@@ -109,8 +120,10 @@ fn cornell(name: &str, stated: Stated) {
 
 #[test]
 fn cornell_acrylic_generalises() {
+    // Every incidence: acryl_blue's 40° comes nearest to 1.0 (0.893).
     cornell(
         "acryl_blue",
+        &[],
         Stated {
             folds: (0.393, 0.761),
             left_out: [(0.270, 0.391), (0.277, 0.241), (0.704, 0.164)],
@@ -121,8 +134,12 @@ fn cornell_acrylic_generalises() {
 
 #[test]
 fn cornell_paint_generalises() {
+    // The stated incidences, its largest (70°: 0.683) among them; every incidence is a minute
+    // more of encodes, which CI's time cannot hold (`sbrdf validate --leave-incidence-out`
+    // prints them all: docs/guide/measured.md).
     cornell(
         "krylon_blue",
+        &[30.0, 50.0, 70.0],
         Stated {
             folds: (0.291, 0.298),
             left_out: [(0.085, 0.057), (0.120, 0.178), (0.679, 0.683)],
