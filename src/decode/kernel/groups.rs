@@ -425,13 +425,30 @@ impl Kernel {
                 self.recs[r0 + first].par[li] as usize,
                 self.recs[r0 + count - 1].par[li] as usize,
             ];
-            let p = blend_shape(
-                kind,
-                &q.w[..slots],
-                |i, j| res.params[pars[i] + j] as f64,
-                |i, j| res.ln_params[pars[i] + j],
-                || 0.0, // kinds 2–4 have no axis
-            );
+            // The kind's rule and the record count as constants in each call (the cosine
+            // power's one parameter, the microfacet's three; one record's stored values): matched
+            // at run time inside `blend_shape`, they cost a tenth of a phong query.
+            let shape = |kind: LobeKind, w: &[Lanes<N>]| {
+                blend_shape(
+                    kind,
+                    w,
+                    |i, j| res.params[pars[i] + j] as f64,
+                    |i, j| res.ln_params[pars[i] + j],
+                    || 0.0, // kinds 2–4 have no axis
+                )
+            };
+            // Kind 4's rule is kind 3's (`shape_rule`).
+            let rule = if kind == LobeKind::CosinePower {
+                LobeKind::CosinePower
+            } else {
+                LobeKind::Microfacet
+            };
+            let p = match (rule, blended) {
+                (LobeKind::CosinePower, true) => shape(LobeKind::CosinePower, &q.w),
+                (LobeKind::CosinePower, false) => shape(LobeKind::CosinePower, &q.w[..1]),
+                (_, true) => shape(LobeKind::Microfacet, &q.w),
+                (_, false) => shape(LobeKind::Microfacet, &q.w[..1]),
+            };
             if kind == LobeKind::CosinePower {
                 let peak = if blended {
                     let peaks = [res.recs[r0].peak, res.recs[r0 + 1].peak];
