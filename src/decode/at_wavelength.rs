@@ -46,7 +46,6 @@ impl<'a> AtWavelength<'a> {
     /// }
     /// # Ok::<(), sbrdf::Error>(())
     /// ```
-    #[inline]
     pub fn eval(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
         self.evaluator.eval_at(&self.route, self.wavelength, wi, wo)
     }

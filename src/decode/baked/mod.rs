@@ -198,7 +198,6 @@ impl<'a> Baked<'a> {
     /// assert!((baked.eval(wi, wo) - exact).abs() <= 1e-3 * floor);
     /// # Ok::<(), sbrdf::Error>(())
     /// ```
-    #[inline]
     pub fn eval(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
         let grids = &self.grids;
         self.evaluator.eval_baked(
