@@ -3,6 +3,10 @@
 //! (|ρ_baked − ρ| ≤ τ·max(ρ, ρ̄)), at three tolerances; the files it does not take refused
 //! with a reason; its grids finer (and larger) for a smaller tolerance.
 
+#[path = "../benches/common/materials.rs"]
+#[allow(dead_code)] // the table baseline is the benchmark's, unused here
+mod materials;
+
 use sbrdf::io::synth::QueryRng;
 use sbrdf::{Decoder, Error};
 use std::path::PathBuf;
@@ -147,4 +151,22 @@ fn a_baked_view_refuses_what_it_cannot_hold() {
         panic!("a tolerance past the largest grid was taken")
     };
     assert!(why.contains("cannot hold"), "{why}");
+}
+
+/// The benchmark's Phong and GGX materials (encoded with the defaults, whose records keep only
+/// Y_0^0 on these θ lines): a view with no grid (side 0), its records' constants exact, within
+/// every tolerance on 10⁵ held-out pairs. The golden files above all carry higher SH levels, so
+/// without this the constants' route would go untested.
+#[test]
+fn records_of_y00_alone_are_baked_without_a_grid() {
+    let pairs = QueryRng::new(0x0000_0BAD_5EED_0001).direction_pairs(PAIRS / 10, 0.0);
+    for name in ["phong9", "ggx7"] {
+        let (_, dec, _, _, _) = materials::material(name).expect("a benchmark material");
+        for tol in TOLERANCES {
+            let (w, side) = worst(&dec, 550.0, tol, &pairs).unwrap();
+            eprintln!("{name}, τ = {tol:e}: worst {w:.3e}, side {side}");
+            assert_eq!(side, 0, "{name}: a grid for constant SH parts");
+            assert!(w <= tol as f64, "{name}, τ = {tol}: worst {w}");
+        }
+    }
 }

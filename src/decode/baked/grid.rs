@@ -55,7 +55,16 @@ impl OctahedralGrids {
         OctahedralGrids { side, half, values }
     }
 
-    /// Vertices a side.
+    /// No grids (side 0): what a view whose SH parts are all constants holds.
+    pub(crate) fn none() -> Self {
+        OctahedralGrids {
+            side: 0,
+            half: 0.0,
+            values: Vec::new(),
+        }
+    }
+
+    /// Vertices a side (0 for [`OctahedralGrids::none`]).
     pub(crate) fn side(&self) -> usize {
         self.side
     }
@@ -72,7 +81,7 @@ impl OctahedralGrids {
         let fu = (wo[0] * inv + 1.0) * self.half;
         let fv = (wo[1] * inv + 1.0) * self.half;
         // Negative (rounding at the horizon) converts to 0; the last cell takes the far edge.
-        let last = self.side - 2;
+        let last = self.side.saturating_sub(2);
         let iu = (fu as usize).min(last);
         let iv = (fv as usize).min(last);
         Cell {
@@ -101,7 +110,7 @@ impl OctahedralGrids {
     /// furthest.
     pub(crate) fn worst_error(&self, r: usize, f: impl Fn([f64; 3]) -> f64) -> f64 {
         let mut worst = 0.0f64;
-        let steps = 2 * (self.side - 1);
+        let steps = 2 * self.side.saturating_sub(1);
         for su in 0..=steps {
             for sv in 0..=steps {
                 if su % 2 == 0 && sv % 2 == 0 {

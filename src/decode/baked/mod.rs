@@ -95,6 +95,23 @@ impl<'a> Baked<'a> {
                 .fold(0.0f64, f64::max)
                 / floor
         };
+        if counts.iter().all(|&p| p <= 1) {
+            // Every record's SH part is its Y_0^0 term, a constant: held as one value a
+            // record, exact, with no grid to bake or read.
+            let constants = (0..counts.len())
+                .map(|r| exact(r, [0.0, 0.0, 1.0]))
+                .collect();
+            return Ok(Baked {
+                evaluator,
+                wavelength,
+                tolerance: tol,
+                input,
+                grids: OctahedralGrids::none(),
+                constants,
+                mean,
+                grid_error: 0.0,
+            });
+        }
         let target = GRID_SHARE * tol;
         // A bilinear grid's error falls as the square of its spacing: one coarse grid predicts
         // the side, and the side grows until its check points hold.
@@ -127,20 +144,13 @@ impl<'a> Baked<'a> {
             }
             side = (side + side / 4 + 1).min(MAX_SIDE);
         };
-        let constants = if counts.iter().all(|&p| p <= 1) {
-            (0..counts.len())
-                .map(|r| exact(r, [0.0, 0.0, 1.0]))
-                .collect()
-        } else {
-            Vec::new()
-        };
         Ok(Baked {
             evaluator,
             wavelength,
             tolerance: tol,
             input,
             grids,
-            constants,
+            constants: Vec::new(),
             mean,
             grid_error,
         })
@@ -162,7 +172,8 @@ impl<'a> Baked<'a> {
         self.mean
     }
 
-    /// Vertices a side of each record's grid.
+    /// Vertices a side of each record's grid; 0 where every record's SH part is a constant
+    /// (its Y_0^0 term alone), held as one value a record with no grid.
     pub fn grid_side(&self) -> usize {
         self.grids.side()
     }
