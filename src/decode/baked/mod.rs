@@ -95,54 +95,44 @@ impl<'a> Baked<'a> {
                 .fold(0.0f64, f64::max)
                 / floor
         };
-        if counts.iter().all(|&p| p <= 1) {
+        let (grids, grid_error, constants) = if counts.iter().all(|&p| p <= 1) {
             // Every record's SH part is its Y_0^0 term, a constant: held as one value a
             // record, exact, with no grid to bake or read.
             let constants = (0..counts.len())
                 .map(|r| exact(r, [0.0, 0.0, 1.0]))
                 .collect();
-            return Ok(Baked {
-                evaluator,
-                wavelength,
-                tolerance: tol,
-                input,
-                grids: OctahedralGrids::none(),
-                constants,
-                mean,
-                grid_error: 0.0,
-            });
-        }
-        let target = GRID_SHARE * tol;
-        // A bilinear grid's error falls as the square of its spacing: one coarse grid predicts
-        // the side, and the side grows until its check points hold.
-        let coarse = OctahedralGrids::bake(MIN_SIDE, counts.len(), exact);
-        let e0 = worst(&coarse);
-        let mut side = if e0 <= target {
-            MIN_SIDE
+            (OctahedralGrids::none(), 0.0, constants)
         } else {
-            let ratio = (e0 / target).sqrt();
-            (((MIN_SIDE - 1) as f64 * ratio * 1.1).ceil() as usize + 1).min(MAX_SIDE)
-        };
-        let (grids, grid_error) = loop {
-            let g = if side == MIN_SIDE {
-                coarse.clone()
+            let target = GRID_SHARE * tol;
+            // A bilinear grid's error falls as the square of its spacing: one coarse grid
+            // predicts the side, and the side grows until its check points hold.
+            let coarse = OctahedralGrids::bake(MIN_SIDE, counts.len(), exact);
+            let e0 = worst(&coarse);
+            if e0 <= target {
+                (coarse, e0, Vec::new())
             } else {
-                OctahedralGrids::bake(side, counts.len(), exact)
-            };
-            let e = worst(&g);
-            if e <= target {
-                break (g, e);
+                let ratio = (e0 / target).sqrt();
+                let mut side =
+                    (((MIN_SIDE - 1) as f64 * ratio * 1.1).ceil() as usize + 1).min(MAX_SIDE);
+                loop {
+                    let g = OctahedralGrids::bake(side, counts.len(), exact);
+                    let e = worst(&g);
+                    if e <= target {
+                        break (g, e, Vec::new());
+                    }
+                    if side >= MAX_SIDE {
+                        return Err(Error::Parameter(format!(
+                            "a baked view at {wavelength} nm cannot hold a tolerance of \
+                             {tolerance}: its grids stray {:.2e}·ρ̄ at {MAX_SIDE}² vertices a \
+                             record (the most it holds); ask for {:.1e} or more, or use \
+                             Decoder::at",
+                            e,
+                            e / GRID_SHARE
+                        )));
+                    }
+                    side = (side + side / 4 + 1).min(MAX_SIDE);
+                }
             }
-            if side >= MAX_SIDE {
-                return Err(Error::Parameter(format!(
-                    "a baked view at {wavelength} nm cannot hold a tolerance of {tolerance}: \
-                     its grids stray {:.2e}·ρ̄ at {MAX_SIDE}² vertices a record (the most it \
-                     holds); ask for {:.1e} or more, or use Decoder::at",
-                    e,
-                    e / GRID_SHARE
-                )));
-            }
-            side = (side + side / 4 + 1).min(MAX_SIDE);
         };
         Ok(Baked {
             evaluator,
@@ -150,7 +140,7 @@ impl<'a> Baked<'a> {
             tolerance: tol,
             input,
             grids,
-            constants: Vec::new(),
+            constants,
             mean,
             grid_error,
         })
