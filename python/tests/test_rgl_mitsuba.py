@@ -79,7 +79,7 @@ def test_reader_matches_mitsuba_measured(path):
         assert pole.sum() == 1  # the mirror direction, merged
         near = inc["theta_o"] > 89.0
         core = ~pole & ~near
-        maps = NORMAL_MAPS if normal else {"identity": (1.0, 1.0)}
+        maps = NORMAL_MAPS if normal else {"identity": NORMAL_MAPS["identity"]}
         answers = {name: mitsuba_brdf(bsdf, wi, wo * np.array([sx, sy, 1.0]))
                    for name, (sx, sy) in maps.items()}
         chosen = min(answers, key=lambda name: rel_l2(ours[core], answers[name][core]))

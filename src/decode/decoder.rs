@@ -278,8 +278,8 @@ impl Decoder {
     /// # Ok::<(), sbrdf::Error>(())
     /// ```
     // Not `#[inline]` (nor `AtWavelength::eval`, `Baked::eval`): with it every crate that calls
-    // it compiled the whole evaluator chain below (`#[inline(always)]`) again, 12 minutes of
-    // `cargo test --release` over the 33 test crates against 3. Same-run cost: eval at 31
+    // it compiled the whole evaluator chain below (`#[inline(always)]`) again: `cargo test
+    // --release --no-run` took 11 minutes over the 33 test crates against 3 without it. Same-run cost: eval at 31
     // wavelengths 9% slower in the bench's loop; at(λ) and the baked view 5–8% faster.
     pub fn eval(&self, wi: [f32; 3], wo: [f32; 3], wavelengths: &[f32], out: &mut [f32]) {
         self.evaluator.eval(wi, wo, wavelengths, out)
