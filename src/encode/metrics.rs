@@ -127,38 +127,46 @@ pub(crate) fn score(
 /// positions p with p mod k = f from every incidence at once (`EVALUATION.md`, "Held-out error").
 pub fn k_fold(
     set: &SampleSet,
-    encode: impl Fn(&SampleSet) -> Result<Decoder>,
+    encode: impl Fn(&SampleSet) -> Result<Decoder> + Sync,
     k: usize,
     salt: usize,
     eps: f64,
 ) -> Result<Vec<ErrorSums>> {
     let wl = &set.wavelengths;
     let orders = fold_ranks(set, salt);
-    let mut sums = vec![ErrorSums::default(); set.incidences.len()];
-    for f in 0..k {
-        let held = |i: usize, d: usize| orders[i][d] % k == f;
-        let train = SampleSet {
-            wavelengths: wl.clone(),
-            incidences: set
+    // The folds' encodes side by side (each is parallel inside too; alone, an encode's last
+    // fit keeps one core), their sums merged in fold order: the same figures, and the same
+    // first failure, as one fold after another.
+    let folds: Vec<Result<Vec<ErrorSums>>> = (0..k)
+        .into_par_iter()
+        .map(|f| {
+            let held = |i: usize, d: usize| orders[i][d] % k == f;
+            let train = SampleSet {
+                wavelengths: wl.clone(),
+                incidences: set
+                    .incidences
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, s)| {
+                        let keep: Vec<usize> =
+                            (0..s.directions.len()).filter(|&d| !held(i, d)).collect();
+                        (!keep.is_empty()).then(|| subset_directions(s, &keep, wl.len()))
+                    })
+                    .collect(),
+            };
+            let dec = encode(&train)
+                .map_err(|e| Error::Parameter(format!("fold {} of {k}: {e}", f + 1)))?;
+            Ok(set
                 .incidences
-                .iter()
+                .par_iter()
                 .enumerate()
-                .filter_map(|(i, s)| {
-                    let keep: Vec<usize> =
-                        (0..s.directions.len()).filter(|&d| !held(i, d)).collect();
-                    (!keep.is_empty()).then(|| subset_directions(s, &keep, wl.len()))
-                })
-                .collect(),
-        };
-        let dec =
-            encode(&train).map_err(|e| Error::Parameter(format!("fold {} of {k}: {e}", f + 1)))?;
-        let fold: Vec<ErrorSums> = set
-            .incidences
-            .par_iter()
-            .enumerate()
-            .map(|(i, s)| score(&dec, s, wl, eps, |d| held(i, d)))
-            .collect();
-        for (a, b) in sums.iter_mut().zip(&fold) {
+                .map(|(i, s)| score(&dec, s, wl, eps, |d| held(i, d)))
+                .collect())
+        })
+        .collect();
+    let mut sums = vec![ErrorSums::default(); set.incidences.len()];
+    for fold in folds {
+        for (a, b) in sums.iter_mut().zip(&fold?) {
             a.merge(b);
         }
     }

@@ -171,8 +171,9 @@ fn encode_to_decoder(set: &SampleSet, opts: &EncodeOptions) -> Result<(Decoder, 
 }
 
 /// Measures the fit, k-fold and leave-one-incidence-out errors of encoding `set` with `opts`.
-/// The encodes run one after the other (each is parallel inside), so the figures do not depend
-/// on the thread count.
+/// The encodes (the whole set's, each fold's, each incidence left out) run side by side, each
+/// parallel inside too, and are scored and pooled in a fixed order, so the figures do not
+/// depend on the thread count.
 pub fn validate(
     set: &SampleSet,
     opts: &EncodeOptions,
@@ -185,13 +186,76 @@ pub fn validate(
             "--folds 1 holds out every sample; use 2 or more (or 0 for none)".into(),
         ));
     }
+    if v.leave_incidence_out && set.incidences.len() < 2 {
+        return Err(Error::Parameter(
+            "--leave-incidence-out needs at least two incidences".into(),
+        ));
+    }
     let eps = log_epsilon(set);
     let wl = &set.wavelengths;
     let quiet = EncodeOptions {
         sample_positions: false,
         ..opts.clone()
     };
-    let (dec, bytes) = encode_to_decoder(set, &quiet)?;
+    // The incidences left out in turn (their indices).
+    let left_out: Vec<usize> = (0..set.incidences.len())
+        .filter(|&x| {
+            let t = set.incidences[x].theta_i;
+            v.leave_incidence_out
+                && (v.leave_out_only.is_empty()
+                    || v.leave_out_only.iter().any(|o| (o - t).abs() < 1e-3))
+        })
+        .collect();
+    let leave_out = |x: usize| -> Result<(ErrorSums, ErrorSums)> {
+        let train = SampleSet {
+            wavelengths: wl.clone(),
+            incidences: set
+                .incidences
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| *i != x)
+                .map(|(_, s)| s.clone())
+                .collect(),
+        };
+        let s = &set.incidences[x];
+        let (dec, _) = encode_to_decoder(&train, &quiet).map_err(|e| {
+            Error::Parameter(format!(
+                "without incidence ({}, {}): {e}",
+                s.theta_i, s.phi_i
+            ))
+        })?;
+        Ok((
+            score(&dec, s, wl, eps, |_| true),
+            nearest_left_out(set, x, eps),
+        ))
+    };
+    let (whole, (folds, left)) = rayon::join(
+        || encode_to_decoder(set, &quiet),
+        || {
+            rayon::join(
+                || {
+                    (v.folds >= 2).then(|| {
+                        k_fold(
+                            set,
+                            |t| Ok(encode_to_decoder(t, &quiet)?.0),
+                            v.folds,
+                            0,
+                            eps,
+                        )
+                    })
+                },
+                || {
+                    left_out
+                        .par_iter()
+                        .map(|&x| leave_out(x))
+                        .collect::<Vec<_>>()
+                },
+            )
+        },
+    );
+    // Failures in the order the encodes would run one after another.
+    let (dec, bytes) = whole?;
+    let folds = folds.transpose()?;
     let dense = v.dense_grid.then(|| dense_grid(&dec, wl));
     let mut incidences: Vec<IncidenceReport> = set
         .incidences
@@ -207,53 +271,17 @@ pub fn validate(
             nearest_left_out: None,
         })
         .collect();
-    if v.folds >= 2 {
-        let sums = k_fold(
-            set,
-            |t| Ok(encode_to_decoder(t, &quiet)?.0),
-            v.folds,
-            0,
-            eps,
-        )?;
+    if let Some(sums) = folds {
         let nearest = nearest_k_fold(set, v.folds, 0, eps);
         for ((r, s), n) in incidences.iter_mut().zip(sums).zip(nearest) {
             r.folds = Some(s);
             r.nearest_folds = Some(n);
         }
     }
-    if v.leave_incidence_out {
-        if set.incidences.len() < 2 {
-            return Err(Error::Parameter(
-                "--leave-incidence-out needs at least two incidences".into(),
-            ));
-        }
-        for x in 0..set.incidences.len() {
-            let t = set.incidences[x].theta_i;
-            if !v.leave_out_only.is_empty()
-                && !v.leave_out_only.iter().any(|o| (o - t).abs() < 1e-3)
-            {
-                continue;
-            }
-            let train = SampleSet {
-                wavelengths: wl.clone(),
-                incidences: set
-                    .incidences
-                    .iter()
-                    .enumerate()
-                    .filter(|(i, _)| *i != x)
-                    .map(|(_, s)| s.clone())
-                    .collect(),
-            };
-            let s = &set.incidences[x];
-            let (dec, _) = encode_to_decoder(&train, &quiet).map_err(|e| {
-                Error::Parameter(format!(
-                    "without incidence ({}, {}): {e}",
-                    s.theta_i, s.phi_i
-                ))
-            })?;
-            incidences[x].left_out = Some(score(&dec, s, wl, eps, |_| true));
-            incidences[x].nearest_left_out = Some(nearest_left_out(set, x, eps));
-        }
+    for (&x, result) in left_out.iter().zip(left) {
+        let (model, nearest) = result?;
+        incidences[x].left_out = Some(model);
+        incidences[x].nearest_left_out = Some(nearest);
     }
     // Pooled over the incidences that have the figure (all of them, but for a partial
     // leave-one-out); None when none has it.
