@@ -3,11 +3,15 @@
 //! (`common::examples::example_folder`); each page's commands run in order, so a page's later
 //! commands read what its earlier ones wrote. Lines that are not `sbrdf` commands (`cargo`,
 //! `pip`, `cc`) are left to CI's own steps; a command that reads a file the repository does not
-//! ship (an RGL spectral `.bsdf`) is skipped, and asserted to be the only kind skipped.
+//! ship (an RGL spectral `.bsdf`) is skipped, and asserted to be the only kind skipped. The
+//! guide's `sbrdf validate` commands ([`common::MEASURED_COMMANDS`], a minute of encodes each)
+//! are left to `tests/measured.rs`, which runs them as written (with `--json`) and holds their
+//! figures.
 #![cfg(unix)] // `sh`, and `sbrdf` on the PATH through a symlink
 
 mod common;
 use common::examples::{example_folder, inputs};
+use common::MEASURED_COMMANDS;
 use std::path::{Path, PathBuf};
 
 /// The commands of a Markdown page's ```sh blocks, each with its `\` continuations.
@@ -55,7 +59,7 @@ fn the_readme_and_guide_commands_run_as_written() {
     pages.extend(guide);
     // The pages in parallel (each in its own folder): `validate`, the slow command here, uses
     // little more than one core.
-    let results: Vec<(usize, Vec<String>)> = std::thread::scope(|scope| {
+    let results: Vec<Page> = std::thread::scope(|scope| {
         let handles: Vec<_> = pages
             .iter()
             .map(|page| {
@@ -65,8 +69,15 @@ fn the_readme_and_guide_commands_run_as_written() {
             .collect();
         handles.into_iter().map(|h| h.join().unwrap()).collect()
     });
-    let ran: usize = results.iter().map(|r| r.0).sum();
-    let skipped: Vec<String> = results.into_iter().flat_map(|r| r.1).collect();
+    let ran: usize = results.iter().map(|r| r.ran).sum();
+    let left: Vec<&str> = results.iter().flat_map(|r| r.left.clone()).collect();
+    for c in MEASURED_COMMANDS {
+        assert!(
+            left.contains(&c),
+            "`{c}` is on no page: tests/measured.rs runs it for the guide"
+        );
+    }
+    let skipped: Vec<String> = results.into_iter().flat_map(|r| r.skipped).collect();
     assert!(
         skipped.iter().all(|s| s.contains("_spec.bsdf")),
         "commands skipped for want of a file: {skipped:#?}"
@@ -74,17 +85,30 @@ fn the_readme_and_guide_commands_run_as_written() {
     assert!(ran >= 40, "only {ran} commands ran (skipped: {skipped:#?})");
 }
 
-/// Runs a page's `sbrdf` commands in order in a fresh example folder, `sbrdf` found on `path`:
-/// how many ran, and the ones skipped for want of a file.
-fn run_page(root: &Path, page: &Path, path: &str) -> (usize, Vec<String>) {
-    let (mut ran, mut skipped) = (0, Vec::new());
+/// What one page's commands came to.
+struct Page {
+    /// How many ran.
+    ran: usize,
+    /// The ones skipped for want of a file.
+    skipped: Vec<String>,
+    /// The ones left to `tests/measured.rs` ([`MEASURED_COMMANDS`]).
+    left: Vec<&'static str>,
+}
+
+/// Runs a page's `sbrdf` commands in order in a fresh example folder, `sbrdf` found on `path`.
+fn run_page(root: &Path, page: &Path, path: &str) -> Page {
+    let (mut ran, mut skipped, mut left) = (0, Vec::new(), Vec::new());
     let commands = shell_commands(&std::fs::read_to_string(page).unwrap());
     let commands: Vec<&String> = commands
         .iter()
         .filter(|c| c.trim_start().starts_with("sbrdf "))
         .collect();
     if commands.is_empty() {
-        return (0, Vec::new());
+        return Page {
+            ran: 0,
+            skipped,
+            left,
+        };
     }
     let dir = example_folder(root);
     let d: &Path = dir.path();
@@ -104,6 +128,11 @@ fn run_page(root: &Path, page: &Path, path: &str) -> (usize, Vec<String>) {
                 .split_whitespace()
                 .map(|w| w.trim_matches('"').to_string())
                 .collect();
+            let command = c.split(" #").next().unwrap_or("").trim();
+            if let Some(m) = MEASURED_COMMANDS.iter().find(|m| **m == command) {
+                left.push(*m);
+                continue;
+            }
             let globbed = |f: &String| f.contains('*');
             if let Some(missing) = inputs(&words)
                 .into_iter()
@@ -142,5 +171,5 @@ fn run_page(root: &Path, page: &Path, path: &str) -> (usize, Vec<String>) {
             }
         }
     });
-    (ran, skipped)
+    Page { ran, skipped, left }
 }

@@ -2,41 +2,109 @@
 //! materials and NIST PTFE, encoded with the defaults and measured by `validate`'s protocols —
 //! 5-fold over the outgoing samples, incidences left out — with the relative L2 and log errors
 //! of `spec/EVALUATION.md`, "Held-out error", and against the nearest sample on the same folds
-//! (never above it: issue 41). Slow for a test (about a minute per material in
-//! an optimised build); the figures are in `docs/guide/measured.md`.
+//! (never above it: issue 41). The guide's commands (`docs/guide/measured.md`, the first also in
+//! the README) run here as written, with `--json`, and their figures are held to what the guide
+//! states; `tests/doc_commands.rs` leaves them to this file rather than encode them twice. Slow
+//! for a test (about a minute per material in an optimised build on two cores).
 
 mod common;
-use common::{held, SLACK};
-use sbrdf::encode::validate::{validate, ValidateOptions, ValidationReport};
+use common::{held, MEASURED_COMMANDS, SLACK};
+use sbrdf::encode::validate::{validate, ValidateOptions};
 use sbrdf::encode::EncodeOptions;
+use serde_json::Value;
 use std::path::Path;
 
-fn read(name: &str) -> sbrdf::encode::SampleSet {
+/// The figures of one validation that these tests hold: (log, rel) pairs.
+struct Figures {
+    folds: (f64, f64),
+    nearest_folds: (f64, f64),
+    /// Per incidence: θi and, where it was left out, its (log, rel).
+    left_out: Vec<(f64, Option<(f64, f64)>)>,
+    bytes: f64,
+    /// The dense grid's values, values below 0 and values at 0 below 85° (when asked for).
+    dense: Option<(f64, f64, f64)>,
+}
+
+/// Runs one of [`MEASURED_COMMANDS`] as the guide writes it (checked against the page), with
+/// `--json`, in the repository's root, and reads its figures.
+fn documented(command: &str) -> Figures {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let page = std::fs::read_to_string(root.join("docs/guide/measured.md")).unwrap();
+    assert!(
+        page.lines().any(|l| l.trim() == command),
+        "docs/guide/measured.md no longer shows `{command}`"
+    );
+    let args: Vec<&str> = command.split_whitespace().skip(1).collect();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_sbrdf"))
+        .args(&args)
+        .arg("--json")
+        .current_dir(root)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "`{command} --json` failed:\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let pair = |v: &Value| -> Option<(f64, f64)> {
+        Some((v.get("log")?.as_f64()?, v.get("rel")?.as_f64()?))
+    };
+    let number = |v: &Value, k: &str| v[k].as_f64().unwrap_or_else(|| panic!("no {k}"));
+    Figures {
+        folds: pair(&v["folds_error"]).expect("5-fold figures"),
+        nearest_folds: pair(&v["nearest_folds"]).expect("the nearest sample's figures"),
+        left_out: v["incidences"]
+            .as_array()
+            .expect("incidences")
+            .iter()
+            .map(|i| (number(i, "theta_i"), pair(&i["left_out"])))
+            .collect(),
+        bytes: number(&v, "bytes_without_positions"),
+        dense: (!v["dense_grid"].is_null()).then(|| {
+            let d = &v["dense_grid"];
+            (
+                number(d, "values"),
+                number(d, "negative"),
+                number(d, "zero_below_85"),
+            )
+        }),
+    }
+}
+
+/// The same figures through the library, for a validation the guide does not show.
+fn library(name: &str, leave_out: &[f64]) -> Figures {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data")
         .join(name);
-    sbrdf::io::read_inputs(&[p]).unwrap().0
-}
-
-fn run(name: &str, leave_out: &[f64], dense: bool) -> ValidationReport {
-    let set = read(name);
+    let set = sbrdf::io::read_inputs(&[p]).unwrap().0;
     let v = ValidateOptions {
         folds: 5,
         leave_incidence_out: true,
         leave_out_only: leave_out.to_vec(),
-        dense_grid: dense,
+        dense_grid: false,
     };
-    validate(&set, &EncodeOptions::default(), &v).unwrap()
+    let r = validate(&set, &EncodeOptions::default(), &v).unwrap();
+    let pair = |s: sbrdf::encode::metrics::ErrorSums| (s.log(), s.rel());
+    Figures {
+        folds: pair(r.folds.unwrap()),
+        nearest_folds: pair(r.nearest_folds.unwrap()),
+        left_out: r
+            .incidences
+            .iter()
+            .map(|i| (i.theta_i, i.left_out.map(pair)))
+            .collect(),
+        bytes: r.bytes as f64,
+        dense: None,
+    }
 }
 
-fn left_out(r: &ValidationReport, theta: f64) -> (f64, f64) {
-    let i = r
-        .incidences
+fn left_out(r: &Figures, theta: f64) -> (f64, f64) {
+    r.left_out
         .iter()
-        .find(|i| (i.theta_i - theta).abs() < 1e-3)
-        .unwrap();
-    let s = i.left_out.unwrap();
-    (s.log(), s.rel())
+        .find(|i| (i.0 - theta).abs() < 1e-3)
+        .and_then(|i| i.1)
+        .unwrap_or_else(|| panic!("{theta}° was not left out"))
 }
 
 /// A relative L2 figure held like any other ([`held`]), whose bound must also be below 1.0, the
@@ -58,72 +126,57 @@ struct Stated {
     bytes: f64,
 }
 
-/// `leave_out`: the incidences left out in turn (empty: every one). None may be predicted with
-/// more light than it holds, rel ≤ 1.0 (what a prediction of zero scores; issue 41).
-fn cornell(name: &str, leave_out: &[f64], stated: Stated) {
-    let r = run(&format!("cornell/{name}.astm"), leave_out, false);
-    let left: Vec<_> = r
-        .incidences
+/// `asked`: how many incidences were left out in turn. None may be predicted with more light
+/// than it holds, rel ≤ 1.0 (what a prediction of zero scores; issue 41).
+fn cornell(name: &str, r: &Figures, asked: usize, stated: Stated) {
+    let left: Vec<(f64, (f64, f64))> = r
+        .left_out
         .iter()
-        .filter(|i| i.left_out.is_some())
+        .filter_map(|&(t, s)| Some((t, s?)))
         .collect();
-    let asked = if leave_out.is_empty() {
-        r.incidences.len()
-    } else {
-        leave_out.len()
-    };
     assert_eq!(left.len(), asked, "{name}: incidences left out");
-    for i in left {
-        let s = i.left_out.expect("left out");
-        eprintln!(
-            "{name}: {}° left out: log {:.3} rel {:.3}",
-            i.theta_i,
-            s.log(),
-            s.rel()
-        );
+    for (t, (log, rel)) in left {
+        eprintln!("{name}: {t}° left out: log {log:.3} rel {rel:.3}");
         assert!(
-            s.rel() <= 1.0,
-            "{name}: {}° left out predicts rel {:.3} > 1.0: light the measurement does not hold",
-            i.theta_i,
-            s.rel()
+            rel <= 1.0,
+            "{name}: {t}° left out predicts rel {rel:.3} > 1.0: light the measurement does not hold"
         );
     }
-    let f = r.folds.unwrap();
+    let (f, nn) = (r.folds, r.nearest_folds);
     eprintln!(
         "{name}: 5-fold log {:.3} rel {:.3}; {} bytes",
-        f.log(),
-        f.rel(),
-        r.bytes
+        f.0, f.1, r.bytes
     );
-    let nn = r.nearest_folds.unwrap();
     eprintln!(
         "{name}: the nearest sample, same folds: log {:.3} rel {:.3}",
-        nn.log(),
-        nn.rel()
+        nn.0, nn.1
     );
     // Issue 41: never worse than handing out the nearest measurement, on the same folds.
     assert!(
-        f.log() <= nn.log(),
+        f.0 <= nn.0,
         "{name}: 5-fold log {:.3} above the nearest sample's {:.3}",
-        f.log(),
-        nn.log()
+        f.0,
+        nn.0
     );
-    held(&format!("{name} 5-fold log"), f.log(), stated.folds.0);
-    held_rel(&format!("{name} 5-fold rel"), f.rel(), stated.folds.1);
+    held(&format!("{name} 5-fold log"), f.0, stated.folds.0);
+    held_rel(&format!("{name} 5-fold rel"), f.1, stated.folds.1);
     for (t, (log_stated, rel_stated)) in [30.0, 50.0, 70.0].into_iter().zip(stated.left_out) {
-        let (log, rel) = left_out(&r, t);
+        let (log, rel) = left_out(r, t);
         held(&format!("{name} {t}° left out log"), log, log_stated);
         held_rel(&format!("{name} {t}° left out rel"), rel, rel_stated);
     }
-    held(&format!("{name} bytes"), r.bytes as f64, stated.bytes);
+    held(&format!("{name} bytes"), r.bytes, stated.bytes);
 }
 
 #[test]
 fn cornell_acrylic_generalises() {
-    // Every incidence: acryl_blue's 40° comes nearest to 1.0 (0.893).
+    // Every incidence left out (the guide's command): acryl_blue's 40° comes nearest to 1.0
+    // (0.893).
+    let r = documented(MEASURED_COMMANDS[0]);
     cornell(
         "acryl_blue",
-        &[],
+        &r,
+        8,
         Stated {
             folds: (0.393, 0.761),
             left_out: [(0.270, 0.391), (0.277, 0.241), (0.704, 0.164)],
@@ -137,9 +190,11 @@ fn cornell_paint_generalises() {
     // The stated incidences, its largest (70°: 0.683) among them; every incidence is a minute
     // more of encodes, which CI's time cannot hold (`sbrdf validate --leave-incidence-out`
     // prints them all: docs/guide/measured.md).
+    let r = library("cornell/krylon_blue.astm", &[30.0, 50.0, 70.0]);
     cornell(
         "krylon_blue",
-        &[30.0, 50.0, 70.0],
+        &r,
+        3,
         Stated {
             folds: (0.291, 0.298),
             left_out: [(0.085, 0.057), (0.120, 0.178), (0.679, 0.683)],
@@ -150,36 +205,28 @@ fn cornell_paint_generalises() {
 
 #[test]
 fn nist_ptfe_generalises_and_stays_positive() {
-    let r = run("nist_ptfe_fr11.csv", &[45.0], true);
-    let f = r.folds.unwrap();
-    let (_, rel45) = left_out(&r, 45.0);
+    let r = documented(MEASURED_COMMANDS[1]);
+    let (log45, rel45) = left_out(&r, 45.0);
     eprintln!(
         "PTFE: 5-fold rel {:.4}, 45° left out {rel45:.4}, {} bytes",
-        f.rel(),
-        r.bytes
+        r.folds.1, r.bytes
     );
-    let (log45, _) = left_out(&r, 45.0);
-    let nn = r.nearest_folds.unwrap();
     assert!(
-        f.log() <= nn.log(),
+        r.folds.0 <= r.nearest_folds.0,
         "PTFE: 5-fold log {:.4} above the nearest sample's {:.4}",
-        f.log(),
-        nn.log()
+        r.folds.0,
+        r.nearest_folds.0
     );
-    held("PTFE 5-fold log", f.log(), 0.012);
-    held_rel("PTFE 5-fold rel", f.rel(), 0.0127);
+    held("PTFE 5-fold log", r.folds.0, 0.012);
+    held_rel("PTFE 5-fold rel", r.folds.1, 0.0127);
     held("PTFE 45° left out log", log45, 0.014);
     held_rel("PTFE 45° left out rel", rel45, 0.0148);
-    held("PTFE bytes", r.bytes as f64, 1.28e3);
-    let d = r.dense.unwrap();
-    assert!(d.values > 100_000);
-    assert_eq!(
-        d.negative, 0,
-        "values below 0 before the clamp, lowest {}",
-        d.minimum
-    );
+    held("PTFE bytes", r.bytes, 1.28e3);
+    let (values, negative, zero_below_85) = r.dense.expect("the dense grid");
+    assert!(values > 100_000.0);
+    assert_eq!(negative, 0.0, "values below 0 before the clamp");
     // Issue 41: the material plainly reflects wherever θi and θo are below 85°; no 0 there.
-    assert_eq!(d.zero_below_85, 0, "values at 0 where θi, θo < 85°");
+    assert_eq!(zero_below_85, 0.0, "values at 0 where θi, θo < 85°");
 }
 
 /// Beyond the measured incidences (issue 41, item 3) the factor model holds each angle at the

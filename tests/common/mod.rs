@@ -3,6 +3,15 @@
 
 pub mod examples;
 
+/// The `sbrdf validate` commands of `docs/guide/measured.md` (the README shows the first), as
+/// written: `tests/measured.rs` runs each (with `--json`) and holds the figures the guide
+/// states, so `tests/doc_commands.rs` leaves them to it instead of encoding them a second time
+/// (each is a minute of encodes).
+pub const MEASURED_COMMANDS: [&str; 2] = [
+    "sbrdf validate tests/data/cornell/acryl_blue.astm --leave-incidence-out",
+    "sbrdf validate tests/data/nist_ptfe_fr11.csv --leave-out 45 --dense-grid",
+];
+
 use sbrdf::encode::encoder::{encode, EncodeOptions, Encoded};
 use sbrdf::encode::samples::SampleSet;
 use sbrdf::io::synth::{paper_grid, sample_material, Phong, SpectrumTable};
