@@ -555,12 +555,23 @@ impl<'a> Problem<'a> {
                 }
             }
         }
-        // The spectral and mixed blocks into the lower triangle, then its mirror above
+        // The mixed and spectral blocks into the lower triangle, then its mirror above
         // (`Cholesky::new` reads the lower alone). Each entry holds the same terms added in the
         // same order as when every row added into the matrix itself (the encoder's output
         // did not change by a bit); summed apart, the row loop's additions run over
         // consecutive wavelengths instead of scattering over the matrix (a Cornell encode
-        // 7.9 s → 6.8 s).
+        // 7.9 s → 6.8 s). The mixed block's rows of spectral parameters are zeros that land on
+        // spectral × spectral entries, so the spectral block is written after it.
+        for p1 in 0..n {
+            for (g2, group2) in groups.iter().enumerate() {
+                let q2 = group2.2.expect("every group has a spectral vector");
+                let from = &mixed[(p1 * ng + g2) * w..(p1 * ng + g2 + 1) * w];
+                for (l, &x) in from.iter().enumerate() {
+                    let q = q2 + l;
+                    a[(p1.max(q), p1.min(q))] = x;
+                }
+            }
+        }
         for (g1, group1) in groups.iter().enumerate() {
             let q1 = group1.2.expect("every group has a spectral vector");
             for (g2, group2) in groups.iter().enumerate() {
@@ -569,19 +580,6 @@ impl<'a> Problem<'a> {
                     for l in 0..w {
                         a[(q1 + l, q2 + l)] = spectral[(g1 * ng + g2) * w + l];
                     }
-                }
-            }
-        }
-        for p1 in 0..n {
-            for (g2, group2) in groups.iter().enumerate() {
-                let q2 = group2.2.expect("every group has a spectral vector");
-                let from = &mixed[(p1 * ng + g2) * w..(p1 * ng + g2 + 1) * w];
-                if from.iter().all(|&x| x == 0.0) {
-                    continue; // a spectral parameter's row, or a table cell no sample reached
-                }
-                for (l, &x) in from.iter().enumerate() {
-                    let q = q2 + l;
-                    a[(p1.max(q), p1.min(q))] = x;
                 }
             }
         }
