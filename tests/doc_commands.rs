@@ -57,8 +57,7 @@ fn the_readme_and_guide_commands_run_as_written() {
         .collect();
     guide.sort();
     pages.extend(guide);
-    // The pages in parallel (each in its own folder): `validate`, the slow command here, uses
-    // little more than one core.
+    // The pages in parallel, each in its own folder.
     let results: Vec<Page> = std::thread::scope(|scope| {
         let handles: Vec<_> = pages
             .iter()
@@ -112,64 +111,47 @@ fn run_page(root: &Path, page: &Path, path: &str) -> Page {
     }
     let dir = example_folder(root);
     let d: &Path = dir.path();
-    // `sbrdf validate` reads its inputs and writes nothing (no redirection in the command): the
-    // page's validations run beside its other commands, each a minute of encodes on one core.
-    let read_only =
-        |c: &str| c.trim_start().starts_with("sbrdf validate ") && !c.contains(['>', '|']);
-    std::thread::scope(|scope| {
-        let mut beside = Vec::new();
-        for c in commands {
-            // The arguments as a shell splits them, up to a comment, globs left unexpanded.
-            let words: Vec<String> = c
-                .replace("\\\n", " ")
-                .split(" #")
-                .next()
-                .unwrap_or("")
-                .split_whitespace()
-                .map(|w| w.trim_matches('"').to_string())
-                .collect();
-            let command = c.split(" #").next().unwrap_or("").trim();
-            if let Some(m) = MEASURED_COMMANDS.iter().find(|m| **m == command) {
-                left.push(*m);
-                continue;
-            }
-            let globbed = |f: &String| f.contains('*');
-            if let Some(missing) = inputs(&words)
-                .into_iter()
-                .find(|f| !globbed(f) && !d.join(f).exists())
-            {
-                skipped.push(format!("{}: {c}  (needs {missing})", page.display()));
-                continue;
-            }
-            let run = move || {
-                let started = std::time::Instant::now();
-                let o = std::process::Command::new("sh")
-                    .arg("-c")
-                    .arg(c)
-                    .env("PATH", path)
-                    .current_dir(d)
-                    .output()
-                    .unwrap();
-                eprintln!("{:6.1} s  {c}", started.elapsed().as_secs_f64());
-                assert!(
-                    o.status.success(),
-                    "{}: `{c}` failed:\n{}",
-                    page.display(),
-                    String::from_utf8_lossy(&o.stderr)
-                );
-            };
-            if read_only(c) {
-                beside.push(scope.spawn(run));
-            } else {
-                run();
-            }
-            ran += 1;
+    for c in commands {
+        // The arguments as a shell splits them, up to a comment, globs left unexpanded.
+        let words: Vec<String> = c
+            .replace("\\\n", " ")
+            .split(" #")
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .map(|w| w.trim_matches('"').to_string())
+            .collect();
+        if let Some(m) = MEASURED_COMMANDS
+            .iter()
+            .find(|m| m.split_whitespace().eq(words.iter().map(String::as_str)))
+        {
+            left.push(*m);
+            continue;
         }
-        for h in beside {
-            if let Err(e) = h.join() {
-                std::panic::resume_unwind(e);
-            }
+        let globbed = |f: &String| f.contains('*');
+        if let Some(missing) = inputs(&words)
+            .into_iter()
+            .find(|f| !globbed(f) && !d.join(f).exists())
+        {
+            skipped.push(format!("{}: {c}  (needs {missing})", page.display()));
+            continue;
         }
-    });
+        let started = std::time::Instant::now();
+        let o = std::process::Command::new("sh")
+            .arg("-c")
+            .arg(c)
+            .env("PATH", path)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        eprintln!("{:6.1} s  {c}", started.elapsed().as_secs_f64());
+        assert!(
+            o.status.success(),
+            "{}: `{c}` failed:\n{}",
+            page.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        ran += 1;
+    }
     Page { ran, skipped, left }
 }
