@@ -240,10 +240,11 @@ impl MicrofacetGeometry {
     }
 
     /// [`MicrofacetGeometry::at`]'s quantities for unit `wi`, `wo` with one division and one
-    /// square root where it takes three and one: the reciprocals of |wi + wo|, of cos θd
-    /// (unclamped) and of ci·co are read from 1/(|wi + wo|·p·ci·co), p = wi·(wi + wo) (=
-    /// |wi + wo|·cos θd). Equal to `at`'s within 10⁻¹⁰ of the largest variant, not bit for bit: for
-    /// views held to a tolerance (the baked view), where the divider's throughput is what a
+    /// square root where it takes three and one: the reciprocals of |wi + wo|², of p = wi·(wi +
+    /// wo) (= |wi + wo|·cos θd) and of ci·co are read from 1/(|wi + wo|²·p·ci·co), which does
+    /// not wait on the root, and sin²θh = 1 − (zi + zo)²/|wi + wo|² needs no root at all: D's
+    /// argument waits on one division. Equal to `at`'s within 10⁻¹⁰ of the largest variant, not
+    /// bit for bit: for views held to a tolerance (the baked view), where the divider is what a
     /// query waits on. None where wi + wo vanishes or p ≤ 0 (opposite directions; `at`'s
     /// variants are 0 there).
     #[inline(always)]
@@ -251,31 +252,38 @@ impl MicrofacetGeometry {
         let sum = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
         let n2 = dot(sum, sum);
         let p = dot(wi, sum);
-        if !(n2 > 0.0 && n2.is_finite() && p > 0.0) {
+        if !(n2 > 0.0 && n2 < f64::INFINITY && p > 0.0) {
             return None;
         }
+        // Plain comparisons, not `f64::max`/`clamp`: every value is a number here, and the
+        // standard library's NaN rules cost several instructions each.
+        let hi = |a: f64, b: f64| if a > b { a } else { b };
+        let lo = |a: f64, b: f64| if a < b { a } else { b };
+        let ci = hi(wi[2], MIN_COS);
+        let co = hi(wo[2], MIN_COS);
+        let cc = ci * co;
+        let inv = 1.0 / (n2 * p * cc);
+        let inv_n2 = inv * p * cc;
         let n = n2.sqrt();
-        let ci = wi[2].max(MIN_COS);
-        let co = wo[2].max(MIN_COS);
-        let inv = 1.0 / (n * p * ci * co);
-        let inv_n = inv * p * ci * co;
-        let ch = (sum[2] * inv_n).clamp(0.0, 1.0);
+        let inv_n = n * inv_n2;
+        let ch = lo(hi(sum[2] * inv_n, 0.0), 1.0);
+        let ch2 = lo(hi(sum[2] * sum[2] * inv_n2, 0.0), 1.0);
         let cd_raw = p * inv_n;
-        let cd = cd_raw.clamp(MIN_COS, 1.0);
+        let cd = lo(hi(cd_raw, MIN_COS), 1.0);
         // 1/cd: n/p where cd is its own; where clamped, the clamp's.
         let inv_cd = if cd == cd_raw {
-            inv * n2 * ci * co
+            n * (inv * n2 * cc)
         } else {
             1.0 / cd
         };
         let m = 2.0 * ch * inv_cd;
-        let vc = (m * co).min(m * ci).min(1.0) * (inv * n * p);
+        let vc = lo(lo(m * co, m * ci), 1.0) * (inv * n2 * p);
         let g = 1.0 - cd;
         let g2 = g * g;
         Some(MicrofacetGeometry {
             ok: true,
             one_minus_ch: 1.0 - ch,
-            sin2_h: 1.0 - ch * ch,
+            sin2_h: 1.0 - ch2,
             ci,
             co,
             vc,

@@ -82,8 +82,9 @@ impl OctahedralGrids {
         let fv = (wo[1] * inv + 1.0) * self.half;
         // Negative (rounding at the horizon) converts to 0; the last cell takes the far edge.
         let last = self.side.saturating_sub(2);
-        let iu = (fu as usize).min(last);
-        let iv = (fv as usize).min(last);
+        // Through u32, which converts in fewer instructions than usize.
+        let iu = (fu as u32 as usize).min(last);
+        let iv = (fv as u32 as usize).min(last);
         Cell {
             at: iu * self.side + iv,
             tu: fu - iu as f64,

@@ -37,7 +37,7 @@ fn polar_table(r: f64, z: f64) -> f64 {
     });
     let small = r.min(z);
     let x = small * (POLAR_NODES as f64 / SQRT_HALF);
-    let i = (x as usize).min(POLAR_NODES - 1);
+    let i = (x as u32 as usize).min(POLAR_NODES - 1); // u32: fewer instructions than usize
     let f = x - i as f64;
     let a = match table.get(i..i + 2) {
         Some(v) => v[0] + f * (v[1] - v[0]),
@@ -100,8 +100,9 @@ fn frame32(wi: [f32; 3], wo: [f32; 3]) -> Option<Frame<1>> {
 #[derive(Debug, Clone)]
 pub(crate) struct BakedLobes {
     steps: usize,
-    /// [(i·(K + 1) + k)·3 + j]: parameter j of operation i at step k.
-    values: Vec<f32>,
+    /// [i·(K + 1) + k][j]: parameter j of operation i at step k (binary32 values, held widened:
+    /// a query reads them with no conversion).
+    values: Vec<[f64; 3]>,
     /// The operations, group by group.
     ops: Vec<BakedOp>,
     /// Group g's operations: ops[starts[g]..starts[g + 1]].
@@ -114,10 +115,11 @@ pub(crate) struct BakedLobes {
 #[derive(Debug, Clone, Copy)]
 struct BakedOp {
     kind: LobeKind,
-    /// The records whose peaks a cosine power blends: slots first..first + slots.
-    first: usize,
     slots: usize,
     amps: [[f64; 4]; 2],
+    /// A cosine power's peak directions: of the first record it reads and, where it blends two,
+    /// the second (copied here so that a query reads no record).
+    peaks: [[f64; 3]; 2],
 }
 
 impl BakedLobes {
@@ -144,18 +146,19 @@ impl BakedLobes {
                         || 0.0,
                     );
                     // The isotropic kinds' three parameters (b, c, a; a cosine power's n).
-                    values.extend(p[..3].iter().map(|&p| p as f32));
+                    values.push([p[0], p[1], p[2]].map(|p| p as f32 as f64));
                 }
                 let mut amps = [[0.0; 4]; 2];
                 let n = if kind == LobeKind::CosinePower { 1 } else { 4 };
                 for (slot, to) in amps.iter_mut().enumerate().skip(first).take(slots) {
                     to[..n].copy_from_slice(&c.amps(r0 + slot)[4 * li..4 * li + n]);
                 }
+                let peak = |slot: usize| res.recs.get(r0 + slot).map_or([0.0; 3], |r| r.peak);
                 ops.push(BakedOp {
                     kind,
-                    first,
                     slots,
                     amps,
+                    peaks: [peak(first), peak(first + slots - 1)],
                 });
             }
             starts.push(ops.len());
@@ -199,7 +202,7 @@ impl BakedLobes {
 
     /// Heap bytes held.
     pub(crate) fn heap_bytes(&self) -> usize {
-        self.values.capacity() * std::mem::size_of::<f32>()
+        self.values.capacity() * std::mem::size_of::<[f64; 3]>()
             + self.ops.capacity() * std::mem::size_of::<BakedOp>()
             + self.starts.capacity() * std::mem::size_of::<usize>()
     }
@@ -208,12 +211,17 @@ impl BakedLobes {
     #[inline(always)]
     fn shape(&self, i: usize, t: f64) -> [f64; 3] {
         let x = t * self.steps as f64;
-        let k = (x as usize).min(self.steps - 1);
+        // t ∈ [0, 1]: through u32, which converts in fewer instructions than usize.
+        let k = (x as u32 as usize).min(self.steps - 1);
         let f = x - k as f64;
-        let at = (i * (self.steps + 1) + k) * 3;
-        match self.values.get(at..at + 6) {
-            Some(v) => std::array::from_fn(|j| v[j] as f64 + f * (v[j + 3] as f64 - v[j] as f64)),
-            None => [0.0; 3],
+        let at = i * (self.steps + 1) + k;
+        match (self.values.get(at), self.values.get(at + 1)) {
+            (Some(a), Some(b)) => [
+                a[0] + f * (b[0] - a[0]),
+                a[1] + f * (b[1] - a[1]),
+                a[2] + f * (b[2] - a[2]),
+            ],
+            _ => [0.0; 3],
         }
     }
 }
@@ -269,7 +277,7 @@ pub(crate) fn one_baked(
     } else {
         s[0]
     };
-    let lobes = lobes(st.res, r0, g, (w, t), (qi, qo), baked);
+    let lobes = lobes(g, (w, t), (qi, qo), baked);
     Some((sh_part + lobes).max(0.0) as f32)
 }
 
@@ -283,8 +291,6 @@ pub(crate) fn one_baked(
 /// gave the same values within 10⁻⁷ and made the GGX view 84 → 163 ns a query (table 74 ns).
 #[inline(always)]
 fn lobes(
-    res: &Resident,
-    r0: usize,
     g: usize,
     (w, t): ([f64; 2], f64),
     (wi, wo): ([f64; 3], [f64; 3]),
@@ -293,28 +299,25 @@ fn lobes(
     let (Some(&start), Some(&end)) = (baked.starts.get(g), baked.starts.get(g + 1)) else {
         return 0.0;
     };
+    let Some(ops) = baked.ops.get(start..end) else {
+        return 0.0;
+    };
     let mut sum = 0.0;
     let mut geometry: Option<MicrofacetGeometry> = None;
-    for i in start..end {
-        let Some(op) = baked.ops.get(i) else {
-            break;
-        };
+    for (i, op) in (start..).zip(ops) {
         let p = baked.shape(i, t);
-        let v = if op.kind == LobeKind::CosinePower {
+        if op.kind == LobeKind::CosinePower {
             let peak = if op.slots == 2 {
-                let peaks = [res.recs[r0].peak, res.recs[r0 + 1].peak];
-                blend_peak([(w[0], peaks[0]), (w[1], peaks[1])]).0
+                blend_peak([(w[0], op.peaks[0]), (w[1], op.peaks[1])]).0
             } else {
-                res.recs[r0 + op.first].peak
+                op.peaks[0]
             };
-            // `cosine_power`'s g^n (g capped at 1, 0 where g ≤ 0) with the quick power.
-            let g = dot(wo, peak).min(1.0);
-            [
-                if g > 0.0 { (p[0] * g.ln()).exp() } else { 0.0 },
-                0.0,
-                0.0,
-                0.0,
-            ]
+            // `cosine_power`'s g^n (g capped at 1, 0 where g ≤ 0); one value, its amplitudes'
+            // blend alone.
+            let g = dot(wo, peak);
+            let g = if g < 1.0 { g } else { 1.0 };
+            let v = if g > 0.0 { (p[0] * g.ln()).exp() } else { 0.0 };
+            sum += v * (w[0] * op.amps[0][0] + w[1] * op.amps[1][0]);
         } else {
             let gm = match geometry {
                 Some(gm) => gm,
@@ -324,10 +327,10 @@ fn lobes(
                 },
             };
             let x = gm.argument(op.kind == LobeKind::MicrofacetSin2);
-            gm.variants_with_d((-p[1] * (1.0 + p[0] * x).ln()).exp(), p[2])
-        };
-        let dot = |a: &[f64; 4]| v[0] * a[0] + v[1] * a[1] + v[2] * a[2] + v[3] * a[3];
-        sum += w[0] * dot(&op.amps[0]) + w[1] * dot(&op.amps[1]);
+            let v = gm.variants_with_d((-p[1] * (1.0 + p[0] * x).ln()).exp(), p[2]);
+            let dot = |a: &[f64; 4]| v[0] * a[0] + v[1] * a[1] + v[2] * a[2] + v[3] * a[3];
+            sum += w[0] * dot(&op.amps[0]) + w[1] * dot(&op.amps[1]);
+        }
     }
     sum
 }
