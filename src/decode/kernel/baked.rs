@@ -9,7 +9,7 @@
 use super::formulas::{Frame, LINE_LOBES};
 use super::groups::{Collapsed, Kernel, Op, Stored};
 use crate::decode::records::resident::Resident;
-use crate::model::angles::{azimuth_rotation, dot, rotate_about_z, unit_lanes};
+use crate::model::angles::{azimuth_rotation, dot, rotate_about_z};
 use crate::model::lanes::{Lanes, Mask};
 use crate::model::lobes::{blend_peak, blend_shape, shape_rule, MicrofacetGeometry, ParamBlend};
 use crate::model::material::LobeKind;
@@ -52,40 +52,42 @@ fn polar_table(r: f64, z: f64) -> f64 {
 
 const SQRT_HALF: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
-/// `v` scaled to unit length, None where that fails (length 0 or not finite). Within 2⁻²⁰ of
-/// unit length (what a renderer passes) by one Newton step from 1, 1/|v| ≈ (3 − |v|²)/2: within
-/// 3/8·2⁻⁴⁰ (4·10⁻¹³) of it with no square root or division, the divider's work that a query
-/// waits on; elsewhere as `unit_lanes`.
+/// The factor that scales `v` to unit length, None where there is none (length 0 or not
+/// finite). Within 2⁻²⁰ of unit length (what a renderer passes) by one Newton step from 1,
+/// 1/|v| ≈ (3 − |v|²)/2: within 3/8·2⁻⁴⁰ (4·10⁻¹³) of it with no square root or division, the
+/// divider's work that a query waits on; elsewhere 1/|v| as `unit_lanes` forms it.
 #[inline(always)]
-fn unit_quick(v: [f32; 3]) -> Option<[f64; 3]> {
-    let v = v.map(f64::from);
+fn unit_scale(v: [f64; 3]) -> Option<f64> {
     let n2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-    let s = if (n2 - 1.0).abs() <= 1.0 / 1_048_576.0 {
-        1.5 - 0.5 * n2
-    } else {
-        let (u, ok) = unit_lanes(v);
-        return ok.then_some(u);
-    };
-    Some(v.map(|c| c * s))
+    if (n2 - 1.0).abs() <= 1.0 / 1_048_576.0 {
+        return Some(1.5 - 0.5 * n2);
+    }
+    let n = n2.sqrt();
+    (n.is_finite() && n > 0.0).then(|| 1.0 / n)
 }
 
 /// The frame step of [`super::formulas::frame`] (`unit_lanes`, `azimuth_rotation`,
-/// `rotate_about_z`) with unit lengths from [`unit_quick`] and θ from [`polar_table`]; None
-/// where either vector is not normalisable or below the surface.
+/// `rotate_about_z`) with unit lengths from [`unit_scale`] and θ from [`polar_table`]; None
+/// where either vector is not normalisable or below the surface. The rotation about z is the
+/// same for a vector and its unit multiple, so it is taken from `wi` as given and its
+/// horizontal length scaled after: the square root that θ waits on starts with the query
+/// rather than after the scale.
 #[inline(always)]
 fn frame32(wi: [f32; 3], wo: [f32; 3]) -> Option<Frame<1>> {
-    let (wi, wo) = (unit_quick(wi)?, unit_quick(wo)?);
+    let (wi, wo) = (wi.map(f64::from), wo.map(f64::from));
+    let (si, so) = (unit_scale(wi)?, unit_scale(wo)?);
     if !(wi[2] >= 0.0 && wo[2] >= 0.0) {
         return None;
     }
     let (r, c, s) = azimuth_rotation(wi);
-    let wo = rotate_about_z(wo, (c, s));
+    let (r, z) = (r * si, wi[2] * si);
+    let wo = rotate_about_z(wo.map(|v| v * so), (c, s));
     let lane = |v: f64| Lanes([v]);
     Some(Frame {
         valid: Mask([true]),
         r: lane(r),
-        z: lane(wi[2]),
-        theta: Lanes([polar_table(r, wi[2])]),
+        z: lane(z),
+        theta: Lanes([polar_table(r, z)]),
         wo: wo.map(lane),
     })
 }
