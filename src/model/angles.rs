@@ -112,10 +112,18 @@ pub fn angle_between(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// (`spec/EVALUATION.md`, "Directions") for one vector or lanes of them.
 #[inline(always)]
 pub fn unit_lanes<R: Real>(v: [R; 3]) -> ([R; 3], R::Mask) {
+    let (s, ok) = unit_scale_lanes(v);
+    (v.map(|c| c * s), ok)
+}
+
+/// The factor [`unit_lanes`] scales `v` by, 1/|v| (1 where `v` has no unit multiple), and where
+/// it has one: for a caller that scales part of `v`, or finds the factor another way where it
+/// can.
+#[inline(always)]
+pub fn unit_scale_lanes<R: Real>(v: [R; 3]) -> (R, R::Mask) {
     let n = dot(v, v).sqrt();
     let ok = R::and(n.finite(), n.gt(R::splat(0.0)));
-    let s = R::splat(1.0) / R::select(ok, n, R::splat(1.0));
-    (v.map(|c| c * s), ok)
+    (R::splat(1.0) / R::select(ok, n, R::splat(1.0)), ok)
 }
 
 /// The rotation about z that takes unit `wi` to azimuth 0 (the records' frame of an isotropic

@@ -9,7 +9,7 @@
 use super::formulas::{Frame, LINE_LOBES};
 use super::groups::{Collapsed, Kernel, Op, Stored};
 use crate::decode::records::resident::Resident;
-use crate::model::angles::{azimuth_rotation, dot, rotate_about_z};
+use crate::model::angles::{azimuth_rotation, dot, rotate_about_z, unit_scale_lanes};
 use crate::model::lanes::{Lanes, Mask};
 use crate::model::lobes::{blend_peak, blend_shape, shape_rule, MicrofacetGeometry, ParamBlend};
 use crate::model::material::LobeKind;
@@ -35,7 +35,7 @@ fn polar_table(r: f64, z: f64) -> f64 {
             })
             .collect()
     });
-    let small = r.min(z);
+    let small = if r < z { r } else { z }; // both numbers: no NaN rule to pay for
     let x = small * (POLAR_NODES as f64 / SQRT_HALF);
     let i = (x as u32 as usize).min(POLAR_NODES - 1); // u32: fewer instructions than usize
     let f = x - i as f64;
@@ -55,15 +55,16 @@ const SQRT_HALF: f64 = std::f64::consts::FRAC_1_SQRT_2;
 /// The factor that scales `v` to unit length, None where there is none (length 0 or not
 /// finite). Within 2⁻²⁰ of unit length (what a renderer passes) by one Newton step from 1,
 /// 1/|v| ≈ (3 − |v|²)/2: within 3/8·2⁻⁴⁰ (4·10⁻¹³) of it with no square root or division, the
-/// divider's work that a query waits on; elsewhere 1/|v| as `unit_lanes` forms it.
+/// divider's work that a query waits on; elsewhere 1/|v| as the exact route forms it
+/// ([`unit_scale_lanes`]).
 #[inline(always)]
 fn unit_scale(v: [f64; 3]) -> Option<f64> {
-    let n2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    let n2 = dot(v, v);
     if (n2 - 1.0).abs() <= 1.0 / 1_048_576.0 {
         return Some(1.5 - 0.5 * n2);
     }
-    let n = n2.sqrt();
-    (n.is_finite() && n > 0.0).then(|| 1.0 / n)
+    let (s, ok) = unit_scale_lanes(v);
+    ok.then_some(s)
 }
 
 /// The frame step of [`super::formulas::frame`] (`unit_lanes`, `azimuth_rotation`,
@@ -329,9 +330,13 @@ fn lobes(
                 },
             };
             let x = gm.argument(op.kind == LobeKind::MicrofacetSin2);
-            let v = gm.variants_with_d((-p[1] * (1.0 + p[0] * x).ln()).exp(), p[2]);
+            // The variants are D times [Vs, Vs·F, Vc, Vc·F]: those factors weighted first and
+            // D's power last, so that one sum, not the factors, lives across its `ln` and `exp`
+            // (calls that may overwrite every vector register).
+            let v = gm.variants_with_d(1.0, p[2]);
             let dot = |a: &[f64; 4]| v[0] * a[0] + v[1] * a[1] + v[2] * a[2] + v[3] * a[3];
-            sum += w[0] * dot(&op.amps[0]) + w[1] * dot(&op.amps[1]);
+            let weighted = w[0] * dot(&op.amps[0]) + w[1] * dot(&op.amps[1]);
+            sum += weighted * (-p[1] * (1.0 + p[0] * x).ln()).exp();
         }
     }
     sum
