@@ -23,12 +23,14 @@
 //! answers them on the general path. The θ bracket (`Axis::neighbours`), the θ clamp
 //! (`clamp_incidence`) and the shared shapes' blend (`model::lobes::blend_shape`) are the
 //! ones every route uses. A baked view (`crate::decode::baked`) runs the same groups with each
-//! record's SH part read from its grids, its shapes blended ahead (`baked.rs`).
+//! record's SH part read from its grids, its shapes blended ahead (`baked.rs`), its lobes'
+//! powers from tables rather than the C library (`power.rs`).
 
 pub(crate) mod baked;
 mod formulas;
 pub(crate) mod groups;
 pub(crate) mod lanes_batch;
+mod power;
 pub(crate) mod width;
 
 #[cfg(test)]
