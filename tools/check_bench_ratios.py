@@ -33,8 +33,10 @@ for m in MATERIALS:
         ("%s: at(λ).eval / table" % m, "eval_%s/at/1" % m, "eval_%s/raw_table/1" % m, 1.6),
         ("%s: eval at one wavelength / table" % m,
          "eval_%s/sbrdf/1" % m, "eval_%s/raw_table/1" % m, 2.1),
+        # The baked view: the README gives 0.46–0.56× on one CPU and an estimate near 0.75× on
+        # one whose table lookups cost half as much; the figure checked is issue 40's 0.8×.
         ("%s: baked view (τ = 1e-3) / table" % m,
-         "eval_%s/baked_1e-3/1" % m, "eval_%s/raw_table/1" % m, 1.15),
+         "eval_%s/baked_1e-3/1" % m, "eval_%s/raw_table/1" % m, 0.8),
     ]
 for m in ["phong9", "ggx7"]:
     CHECKS += [
