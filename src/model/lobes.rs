@@ -4,7 +4,7 @@
 //! `spec/EVALUATION.md`, section "Lobes".
 
 use crate::model::angles::dot;
-use crate::model::lanes::Real;
+use crate::model::lanes::{max_or_first, min_or_first, Real};
 use crate::model::material::LobeKind;
 
 /// Cosines are kept at least this large so the grazing factors stay finite on the horizon.
@@ -257,10 +257,11 @@ impl MicrofacetGeometry {
         if !(n2 > 0.0 && p > 0.0) {
             return None;
         }
-        // Plain comparisons, not `f64::max`/`clamp`: every value is a number here, and the
-        // standard library's NaN rules cost several instructions each.
-        let hi = |a: f64, b: f64| if a > b { a } else { b };
-        let lo = |a: f64, b: f64| if a < b { a } else { b };
+        // `max_or_first`/`min_or_first`, not `f64::max`/`min`/`clamp`: every value is a number
+        // here, and the standard library's NaN rules cost several instructions each. The bound
+        // goes first: that order compiles to fewer instructions here (callgrind, GGX 4 a query).
+        let hi = |a: f64, bound: f64| max_or_first(bound, a);
+        let lo = |a: f64, bound: f64| min_or_first(bound, a);
         let ci = hi(wi[2], MIN_COS);
         let co = hi(wo[2], MIN_COS);
         let cc = ci * co;

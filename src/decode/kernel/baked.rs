@@ -12,7 +12,7 @@ use super::groups::{Collapsed, Kernel, Op, Stored};
 use super::power::Power;
 use crate::decode::records::resident::Resident;
 use crate::model::angles::{azimuth_rotation, dot, rotate_about_z, unit_scale_lanes};
-use crate::model::lanes::{Lanes, Mask};
+use crate::model::lanes::{min_or_first, Lanes, Mask};
 use crate::model::lobes::{blend_peak, blend_shape, shape_rule, MicrofacetGeometry, ParamBlend};
 use crate::model::material::LobeKind;
 
@@ -37,7 +37,7 @@ fn polar_table(r: f64, z: f64) -> f64 {
             })
             .collect()
     });
-    let small = if r < z { r } else { z }; // both numbers: no NaN rule to pay for
+    let small = min_or_first(z, r); // r where it is the smaller (both are numbers here)
     let x = small * (POLAR_NODES as f64 / SQRT_HALF);
     let i = (x as u32 as usize).min(POLAR_NODES - 1); // u32: fewer instructions than usize
     let f = x - i as f64;
@@ -325,7 +325,7 @@ fn lobes(
             // `cosine_power`'s g^n (g capped at 1, 0 where g ≤ 0); one value, its amplitudes'
             // blend alone.
             let g = dot(wo, peak);
-            let g = if g < 1.0 { g } else { 1.0 };
+            let g = min_or_first(1.0, g); // g where it is below 1
             let v = if g > 0.0 {
                 baked.power.pow(g, p[0])
             } else {
